@@ -1,0 +1,39 @@
+// Poses, points and the small geometric helpers every module shares.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <vector>
+
+namespace depowder {
+
+/// One pose type across the code base: T_target_source maps source-frame points into target.
+using Pose = Eigen::Isometry3d;
+using Point = Eigen::Vector3d;
+using Cloud = std::vector<Point>;
+
+/// Angle of the relative rotation a^T b, radians in [0, pi].
+double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
+
+/// Translation distance |a.t - b.t|, metres.
+double translationDistance(const Pose& a, const Pose& b);
+
+/// True if every entry is finite, the rotation is orthonormal with det +1 (within tol)
+/// and the last row is (0 0 0 1).
+bool isValidPose(const Pose& pose, double tolerance = 1e-6);
+
+/// Pose from translation (m) and quaternion (w, x, y, z); the quaternion is normalised.
+Pose makePose(const Eigen::Vector3d& t, const Eigen::Quaterniond& q);
+
+/// Pose from translation (m) and roll/pitch/yaw (rad, applied as Rz(yaw) Ry(pitch) Rx(roll)).
+Pose makePoseRpy(const Eigen::Vector3d& t, double roll, double pitch, double yaw);
+
+/// Axis-aligned bounds of a cloud.
+Eigen::AlignedBox3d bounds(const Cloud& cloud);
+
+/// p -> T * p for every point.
+Cloud transformed(const Cloud& cloud, const Pose& T);
+
+/// Rotates normals by T's rotation.
+Cloud rotated(const Cloud& normals, const Pose& T);
+
+}  // namespace depowder

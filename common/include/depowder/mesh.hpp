@@ -1,0 +1,65 @@
+// Triangle meshes: loading (STL ascii/binary, OBJ, PLY ascii/binary), writing
+// binary STL, and area-weighted surface sampling with normals.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "depowder/geometry.hpp"
+
+namespace depowder {
+
+struct Mesh {
+  std::vector<Eigen::Vector3d> vertices;   ///< metres (after the loader's scale)
+  std::vector<Eigen::Vector3i> triangles;  ///< indices into vertices, counter-clockwise = outward
+};
+
+/// A mesh file could not be read; the message names the file and what was wrong.
+class MeshError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Loads .stl (ascii or binary), .obj or .ply (ascii or binary_little_endian) by extension.
+/// Coordinates are multiplied by `scale` (e.g. 0.001 for a mesh in millimetres).
+/// Throws MeshError naming the file for a missing, empty, malformed or triangle-free file.
+Mesh loadMesh(const std::string& path, double scale = 1.0);
+
+/// Writes a binary STL. Throws MeshError if the file cannot be written.
+void saveStl(const Mesh& mesh, const std::string& path);
+
+/// Appends b to a (indices shifted).
+void append(Mesh& a, const Mesh& b);
+
+Mesh transformed(const Mesh& mesh, const Pose& T);
+
+/// Total surface area, m^2.
+double surfaceArea(const Mesh& mesh);
+
+/// Enclosed volume by the divergence theorem, m^3 (meaningful for closed meshes).
+double volume(const Mesh& mesh);
+
+Eigen::AlignedBox3d bounds(const Mesh& mesh);
+
+/// Unit outward normal of triangle i (zero for a degenerate triangle).
+Eigen::Vector3d triangleNormal(const Mesh& mesh, std::size_t i);
+
+struct SurfaceSamples {
+  Cloud points;   ///< on the triangles, mesh frame
+  Cloud normals;  ///< unit, outward (the triangle's)
+};
+
+/// Area-weighted uniform random samples: about area / spacing^2 points, seeded.
+/// Throws MeshError for a mesh with no area.
+SurfaceSamples sampleSurface(const Mesh& mesh, double spacing, std::uint32_t seed = 1);
+
+/// Exactly `count` area-weighted samples, seeded.
+SurfaceSamples sampleSurfaceCount(const Mesh& mesh, std::size_t count, std::uint32_t seed = 1);
+
+/// Euclidean distance from p to the closest point of the mesh (brute force; tests and tools).
+double distanceToMesh(const Mesh& mesh, const Eigen::Vector3d& p);
+
+}  // namespace depowder

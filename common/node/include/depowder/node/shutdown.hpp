@@ -1,0 +1,13 @@
+// SIGINT / SIGTERM set a flag that every main loop polls, for a clean shutdown.
+#pragma once
+
+namespace depowder::node {
+
+/// Installs the handlers (idempotent).
+void installShutdownHandlers();
+/// True once SIGINT or SIGTERM has arrived.
+bool shutdownRequested();
+/// Sets the flag by hand (tests, fatal errors in a worker).
+void requestShutdown();
+
+}  // namespace depowder::node

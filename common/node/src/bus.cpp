@@ -1,0 +1,84 @@
+#include "depowder/node/bus.hpp"
+
+#include <cstdlib>
+#include <exception>
+#include <utility>
+
+namespace depowder::node {
+
+struct Bus::Subscription {
+  Bus* bus;
+  RawHandler handler;
+  void handle(const lcm::ReceiveBuffer* rbuf, const std::string& ch) {
+    try {
+      if (handler(rbuf->data, static_cast<int>(rbuf->data_size), ch)) {
+        ++bus->counters_.received;
+      } else {
+        ++bus->counters_.decode_errors;
+        bus->keepError("could not decode a " + std::to_string(rbuf->data_size) + "-byte message on " + ch +
+                       " (wrong type or corrupt)");
+      }
+    } catch (const std::exception& e) {
+      ++bus->counters_.handler_errors;
+      bus->keepError("handler for " + ch + " failed: " + e.what());
+    } catch (...) {
+      ++bus->counters_.handler_errors;
+      bus->keepError("handler for " + ch + " failed with an unknown exception");
+    }
+  }
+};
+
+namespace {
+std::string effectiveUrl(const std::string& url) {
+  if (!url.empty()) return url;
+  const char* env = std::getenv("LCM_DEFAULT_URL");
+  return env ? env : "";
+}
+}  // namespace
+
+Bus::Bus(const std::string& url, std::string prefix) : prefix_(std::move(prefix)), lcm_(effectiveUrl(url)) {
+  if (!lcm_.good()) {
+    const std::string shown = effectiveUrl(url).empty() ? "LCM's default udpm URL" : effectiveUrl(url);
+    throw BusError("LCM could not start on " + shown +
+                   ". With udpm this usually means the host has no multicast route (no network, or a fresh network "
+                   "namespace). Fix: `ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo` (as root), or run "
+                   "with LCM_DEFAULT_URL=memq:// for a single process.");
+  }
+}
+
+Bus::~Bus() = default;
+
+void Bus::subscribeRaw(const std::string& pattern, RawHandler handler) {
+  auto sub = std::make_unique<Subscription>(Subscription{this, std::move(handler)});
+  lcm_.subscribe(channel(pattern), &Subscription::handle, sub.get());
+  subscriptions_.push_back(std::move(sub));
+}
+
+void Bus::publishRaw(const std::string& name, const void* data, int size) {
+  if (lcm_.publish(channel(name), data, static_cast<unsigned int>(size)) == 0) {
+    ++counters_.published;
+  } else {
+    keepError("publish on " + channel(name) + " failed");
+  }
+}
+
+int Bus::spinOnce(int timeout_ms) {
+  const auto before = counters_.received + counters_.decode_errors + counters_.handler_errors;
+  const int rc = lcm_.handleTimeout(timeout_ms);
+  if (rc < 0) throw BusError("LCM handle failed (the LCM socket reported an error)");
+  return static_cast<int>(counters_.received + counters_.decode_errors + counters_.handler_errors - before);
+}
+
+Bus::Counters Bus::counters() const { return counters_; }
+
+void Bus::keepError(std::string what) {
+  std::lock_guard<std::mutex> lock(errors_mutex_);
+  if (errors_.size() < 100) errors_.push_back(std::move(what));
+}
+
+std::vector<std::string> Bus::takeErrors() {
+  std::lock_guard<std::mutex> lock(errors_mutex_);
+  return std::exchange(errors_, {});
+}
+
+}  // namespace depowder::node

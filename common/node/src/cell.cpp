@@ -1,0 +1,110 @@
+#include "depowder/node/cell.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <set>
+
+namespace depowder::node {
+
+const std::vector<std::string> kModuleSections = {"perception", "tracker", "progress", "planner", "robot", "sim"};
+
+double CameraConfig::fx() const { return 0.5 * width / std::tan(0.5 * fov_h_deg * M_PI / 180.0); }
+double CameraConfig::fy() const { return 0.5 * height / std::tan(0.5 * fov_v_deg * M_PI / 180.0); }
+
+Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - position).normalized();
+  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
+  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();  // looking straight down or up
+  x.normalize();
+  const Eigen::Vector3d y = z.cross(x);
+  Pose T = Pose::Identity();
+  T.linear() << x, y, z;
+  T.translation() = position;
+  return T;
+}
+
+namespace {
+
+CameraConfig readCamera(const YamlReader& r) {
+  CameraConfig c;
+  r.require("name", c.name);
+  r.read("width", c.width, 16, 4096);
+  r.read("height", c.height, 16, 4096);
+  r.read("fov_h_deg", c.fov_h_deg, 10.0, 170.0);
+  r.read("fov_v_deg", c.fov_v_deg, 10.0, 170.0);
+  r.read("rate_hz", c.rate_hz, 0.1, 240.0);
+  r.read("min_range", c.min_range, 0.0, 100.0);
+  r.read("max_range", c.max_range, 0.01, 100.0);
+  if (c.max_range <= c.min_range) r.fail("max_range", "must be greater than min_range");
+  if (r.has("look_at")) {
+    Eigen::Vector3d position = Eigen::Vector3d::Zero(), target = Eigen::Vector3d::Zero();
+    r.readVector3("position", position);
+    r.readVector3("look_at", target);
+    if ((target - position).norm() < 1e-6) r.fail("look_at", "must differ from position");
+    c.T_cell_camera = lookAt(position, target);
+  } else {
+    r.readPose("pose", c.T_cell_camera);
+  }
+  const YamlReader n = r.child("noise");
+  n.read("sigma_base", c.noise.sigma_base, 0.0, 0.1);
+  n.read("sigma_per_m", c.noise.sigma_per_m, 0.0, 0.1);
+  n.read("flying_pixel_prob", c.noise.flying_pixel_prob, 0.0, 1.0);
+  n.read("grazing_dropout_deg", c.noise.grazing_dropout_deg, 0.0, 90.0);
+  n.read("dropout_prob", c.noise.dropout_prob, 0.0, 1.0);
+  n.finish();
+  r.finish();
+  return c;
+}
+
+PartConfig readPart(const YamlReader& r) {
+  PartConfig p;
+  r.require("name", p.name);
+  r.require("mesh", p.mesh);
+  if (!p.mesh.empty() && p.mesh[0] != '/' && !r.directory().empty()) p.mesh = r.directory() + "/" + p.mesh;
+  r.read("mesh_scale", p.mesh_scale, 1e-6, 1e3);
+  r.readPose("initial_pose", p.T_cell_part_init);
+  r.read("xi", p.xi, 0.0005, 0.1);
+  r.read("density", p.density, 10.0, 30000.0);
+  r.finish();
+  return p;
+}
+
+CellConfig readCell(YamlReader root) {
+  CellConfig cell{root.file(), {}, {}, {}, {}, root};
+  const YamlReader lcm = root.child("lcm");
+  lcm.read("url", cell.lcm.url);
+  lcm.read("prefix", cell.lcm.prefix);
+  lcm.finish();
+  const YamlReader box = root.child("box");
+  box.readVector3("size", cell.box.size);
+  if (cell.box.size.minCoeff() <= 0 || cell.box.size.maxCoeff() > 5) box.fail("size", "each side must be in (0, 5] m");
+  box.read("wall", cell.box.wall, 0.0, 0.2);
+  box.finish();
+  std::set<std::string> names;
+  for (const YamlReader& c : root.items("cameras")) {
+    cell.cameras.push_back(readCamera(c));
+    if (!names.insert("camera:" + cell.cameras.back().name).second) c.fail("name", "is used twice");
+  }
+  for (const YamlReader& p : root.items("parts")) {
+    cell.parts.push_back(readPart(p));
+    if (!names.insert("part:" + cell.parts.back().name).second) p.fail("name", "is used twice");
+  }
+  for (const std::string& section : kModuleSections) root.child(section);  // read later by their modules
+  root.finish();
+  return cell;
+}
+
+}  // namespace
+
+CellConfig loadCell(const std::string& path) { return readCell(YamlReader::loadFile(path)); }
+
+CellConfig loadCellFromString(const std::string& text, const std::string& file) {
+  return readCell(YamlReader::loadString(text, file));
+}
+
+std::string defaultCellPath() {
+  if (const char* env = std::getenv("DEPOWDER_CELL")) return env;
+  return DEPOWDER_DEFAULT_CELL;
+}
+
+}  // namespace depowder::node

@@ -1,0 +1,68 @@
+#include "depowder/node/heartbeat.hpp"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include "depowder/node/convert.hpp"
+
+namespace depowder::node {
+
+std::string hostName() {
+  char buf[256] = {0};
+  return gethostname(buf, sizeof(buf) - 1) == 0 ? buf : "unknown";
+}
+
+double processCpuSeconds() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_utime.tv_sec + ru.ru_stime.tv_sec + 1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
+
+std::int64_t peakRssKb() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_maxrss;
+}
+
+Heartbeat::Heartbeat(Bus& bus, std::string process, double period_s) : bus_(bus), period_s_(period_s) {
+  msg_.process = std::move(process);
+  msg_.host = hostName();
+  msg_.pid = static_cast<std::int32_t>(getpid());
+  msg_.state = heartbeat_t::STARTING;
+  last_cpu_s_ = processCpuSeconds();
+}
+
+void Heartbeat::setState(std::int8_t state, std::string reason) {
+  msg_.state = state;
+  msg_.state_reason = std::move(reason);
+}
+
+void Heartbeat::tick() {
+  if (nowUtime() - last_utime_ >= static_cast<std::int64_t>(period_s_ * 1e6)) publish();
+}
+
+void Heartbeat::publish() {
+  const std::int64_t now = nowUtime();
+  const double cpu = processCpuSeconds();
+  const double wall = last_utime_ > 0 ? (now - last_utime_) * 1e-6 : 0.0;
+  msg_.cpu_percent = wall > 0 ? static_cast<float>(100.0 * (cpu - last_cpu_s_) / wall) : 0.f;
+  last_cpu_s_ = cpu;
+  last_utime_ = now;
+  const Bus::Counters c = bus_.counters();
+  msg_.utime = now;
+  msg_.received = c.received;
+  msg_.published = c.published + 1;  // this heartbeat included
+  msg_.decode_errors = c.decode_errors;
+  msg_.dropped = dropped_;
+  msg_.peak_rss_kb = peakRssKb();
+  msg_.stat_names.clear();
+  msg_.stat_values.clear();
+  for (const auto& [name, value] : stats_) {
+    msg_.stat_names.push_back(name);
+    msg_.stat_values.push_back(value);
+  }
+  msg_.num_stats = static_cast<std::int32_t>(msg_.stat_names.size());
+  bus_.publish("HEARTBEAT", msg_);
+}
+
+}  // namespace depowder::node

@@ -1,0 +1,57 @@
+#include "depowder/geometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace depowder {
+
+double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  const double c = ((a.transpose() * b).trace() - 1.0) / 2.0;
+  return std::acos(std::clamp(c, -1.0, 1.0));
+}
+
+double translationDistance(const Pose& a, const Pose& b) { return (a.translation() - b.translation()).norm(); }
+
+bool isValidPose(const Pose& pose, double tolerance) {
+  const Eigen::Matrix4d& m = pose.matrix();
+  if (!m.allFinite()) return false;
+  if (!m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1), tolerance)) return false;
+  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+  return (r.transpose() * r - Eigen::Matrix3d::Identity()).norm() < tolerance &&
+         std::abs(r.determinant() - 1.0) < tolerance;
+}
+
+Pose makePose(const Eigen::Vector3d& t, const Eigen::Quaterniond& q) {
+  Pose pose = Pose::Identity();
+  pose.linear() = q.normalized().toRotationMatrix();
+  pose.translation() = t;
+  return pose;
+}
+
+Pose makePoseRpy(const Eigen::Vector3d& t, double roll, double pitch, double yaw) {
+  const Eigen::Quaterniond q = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  return makePose(t, q);
+}
+
+Eigen::AlignedBox3d bounds(const Cloud& cloud) {
+  Eigen::AlignedBox3d box;
+  for (const Point& p : cloud) box.extend(p);
+  return box;
+}
+
+Cloud transformed(const Cloud& cloud, const Pose& T) {
+  Cloud out(cloud.size());
+  std::transform(cloud.begin(), cloud.end(), out.begin(), [&](const Point& p) { return T * p; });
+  return out;
+}
+
+Cloud rotated(const Cloud& normals, const Pose& T) {
+  Cloud out(normals.size());
+  const Eigen::Matrix3d R = T.linear();
+  std::transform(normals.begin(), normals.end(), out.begin(), [&](const Point& n) { return R * n; });
+  return out;
+}
+
+}  // namespace depowder

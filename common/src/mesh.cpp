@@ -1,0 +1,382 @@
+#include "depowder/mesh.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+
+namespace depowder {
+namespace {
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw MeshError("mesh '" + path + "': " + what);
+}
+
+std::string lowerExtension(const std::string& path) {
+  const auto dot = path.find_last_of('.');
+  std::string ext = dot == std::string::npos ? "" : path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+std::string readAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Binary STL: 80-byte header, uint32 count, then 50 bytes a triangle.
+bool looksLikeBinaryStl(const std::string& data) {
+  if (data.size() < 84) return false;
+  std::uint32_t n;
+  std::memcpy(&n, data.data() + 80, 4);
+  return data.size() == 84 + 50ull * n;
+}
+
+Mesh parseBinaryStl(const std::string& path, const std::string& data) {
+  std::uint32_t n;
+  std::memcpy(&n, data.data() + 80, 4);
+  Mesh mesh;
+  mesh.vertices.reserve(3ull * n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const char* tri = data.data() + 84 + 50ull * i + 12;  // skip the facet normal
+    for (int k = 0; k < 3; ++k) {
+      float v[3];
+      std::memcpy(v, tri + 12 * k, 12);
+      mesh.vertices.emplace_back(v[0], v[1], v[2]);
+    }
+    const int b = static_cast<int>(3 * i);
+    mesh.triangles.emplace_back(b, b + 1, b + 2);
+  }
+  return mesh;
+}
+
+Mesh parseAsciiStl(const std::string& path, const std::string& data) {
+  std::istringstream in(data);
+  std::string word;
+  Mesh mesh;
+  int in_facet = 0;
+  while (in >> word) {
+    if (word == "vertex") {
+      Eigen::Vector3d v;
+      if (!(in >> v.x() >> v.y() >> v.z())) fail(path, "malformed ascii STL vertex");
+      mesh.vertices.push_back(v);
+      ++in_facet;
+    } else if (word == "endfacet") {
+      if (in_facet != 3) fail(path, "ascii STL facet with " + std::to_string(in_facet) + " vertices");
+      const int b = static_cast<int>(mesh.vertices.size()) - 3;
+      mesh.triangles.emplace_back(b, b + 1, b + 2);
+      in_facet = 0;
+    }
+  }
+  return mesh;
+}
+
+// OBJ: "v x y z" and "f a b c ..." (a may be a/b/c or negative); polygons as fans.
+Mesh parseObj(const std::string& path, const std::string& data) {
+  std::istringstream in(data);
+  std::string line;
+  Mesh mesh;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::istringstream ls(line);
+    std::string tag;
+    ls >> tag;
+    if (tag == "v") {
+      Eigen::Vector3d v;
+      if (!(ls >> v.x() >> v.y() >> v.z())) fail(path, "bad vertex on line " + std::to_string(line_no));
+      mesh.vertices.push_back(v);
+    } else if (tag == "f") {
+      std::vector<int> idx;
+      std::string tok;
+      while (ls >> tok) {
+        int i = 0;
+        try {
+          i = std::stoi(tok.substr(0, tok.find('/')));
+        } catch (const std::exception&) {
+          fail(path, "bad face index '" + tok + "' on line " + std::to_string(line_no));
+        }
+        i = i < 0 ? static_cast<int>(mesh.vertices.size()) + i : i - 1;
+        if (i < 0 || i >= static_cast<int>(mesh.vertices.size()))
+          fail(path, "face index out of range on line " + std::to_string(line_no));
+        idx.push_back(i);
+      }
+      if (idx.size() < 3) fail(path, "face with fewer than 3 vertices on line " + std::to_string(line_no));
+      for (std::size_t k = 1; k + 1 < idx.size(); ++k) mesh.triangles.emplace_back(idx[0], idx[k], idx[k + 1]);
+    }
+  }
+  return mesh;
+}
+
+// PLY, ascii or binary_little_endian: vertex x,y,z (any scalar type), face vertex_indices list.
+int plyTypeSize(const std::string& t) {
+  static const std::map<std::string, int> sizes = {{"char", 1},  {"uchar", 1},   {"int8", 1},   {"uint8", 1},
+                                                   {"short", 2}, {"ushort", 2},  {"int16", 2},  {"uint16", 2},
+                                                   {"int", 4},   {"uint", 4},    {"int32", 4},  {"uint32", 4},
+                                                   {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+  const auto it = sizes.find(t);
+  return it == sizes.end() ? 0 : it->second;
+}
+
+double readBinaryScalar(const char*& p, const std::string& t) {
+  auto get = [&p](auto v) {
+    std::memcpy(&v, p, sizeof(v));
+    p += sizeof(v);
+    return static_cast<double>(v);
+  };
+  if (t == "char" || t == "int8") return get(std::int8_t{});
+  if (t == "uchar" || t == "uint8") return get(std::uint8_t{});
+  if (t == "short" || t == "int16") return get(std::int16_t{});
+  if (t == "ushort" || t == "uint16") return get(std::uint16_t{});
+  if (t == "int" || t == "int32") return get(std::int32_t{});
+  if (t == "uint" || t == "uint32") return get(std::uint32_t{});
+  if (t == "float" || t == "float32") return get(float{});
+  return get(double{});
+}
+
+struct PlyProperty {
+  std::string name, type, count_type;  // count_type non-empty for a list
+};
+struct PlyElement {
+  std::string name;
+  std::size_t count = 0;
+  std::vector<PlyProperty> props;
+};
+
+Mesh parsePly(const std::string& path, const std::string& data) {
+  const auto header_end = data.find("end_header");
+  if (data.rfind("ply", 0) != 0 || header_end == std::string::npos) fail(path, "not a PLY file (no ply/end_header)");
+  std::istringstream header(data.substr(0, header_end));
+  std::string line, format;
+  std::vector<PlyElement> elements;
+  while (std::getline(header, line)) {
+    std::istringstream ls(line);
+    std::string tag;
+    ls >> tag;
+    if (tag == "format") {
+      ls >> format;
+    } else if (tag == "element") {
+      PlyElement e;
+      ls >> e.name >> e.count;
+      elements.push_back(e);
+    } else if (tag == "property") {
+      if (elements.empty()) fail(path, "property before any element");
+      PlyProperty p;
+      ls >> p.type;
+      if (p.type == "list") ls >> p.count_type >> p.type;
+      ls >> p.name;
+      if (!plyTypeSize(p.type) || (!p.count_type.empty() && !plyTypeSize(p.count_type)))
+        fail(path, "unknown PLY property type in '" + line + "'");
+      elements.back().props.push_back(p);
+    }
+  }
+  const bool ascii = format == "ascii";
+  if (!ascii && format != "binary_little_endian") fail(path, "unsupported PLY format '" + format + "'");
+  std::size_t body = data.find('\n', header_end);
+  if (body == std::string::npos) fail(path, "PLY header not terminated");
+  ++body;
+
+  Mesh mesh;
+  std::istringstream text(ascii ? data.substr(body) : std::string());
+  const char* p = data.data() + body;
+  const char* end = data.data() + data.size();
+  auto scalar = [&](const std::string& type) -> double {
+    if (ascii) {
+      double v;
+      if (!(text >> v)) fail(path, "PLY body ends early");
+      return v;
+    }
+    if (p + plyTypeSize(type) > end) fail(path, "PLY body ends early");
+    return readBinaryScalar(p, type);
+  };
+  for (const PlyElement& e : elements) {
+    for (std::size_t i = 0; i < e.count; ++i) {
+      Eigen::Vector3d v = Eigen::Vector3d::Zero();
+      for (const PlyProperty& prop : e.props) {
+        if (!prop.count_type.empty()) {
+          const auto n = static_cast<std::size_t>(scalar(prop.count_type));
+          std::vector<int> idx(n);
+          for (auto& k : idx) k = static_cast<int>(scalar(prop.type));
+          if (e.name == "face" && (prop.name == "vertex_indices" || prop.name == "vertex_index")) {
+            if (n < 3) fail(path, "PLY face with fewer than 3 vertices");
+            for (std::size_t k = 1; k + 1 < n; ++k) mesh.triangles.emplace_back(idx[0], idx[k], idx[k + 1]);
+          }
+        } else {
+          const double s = scalar(prop.type);
+          if (e.name == "vertex" && prop.name == "x") v.x() = s;
+          if (e.name == "vertex" && prop.name == "y") v.y() = s;
+          if (e.name == "vertex" && prop.name == "z") v.z() = s;
+        }
+      }
+      if (e.name == "vertex") mesh.vertices.push_back(v);
+    }
+  }
+  for (const auto& t : mesh.triangles)
+    if (t.minCoeff() < 0 || t.maxCoeff() >= static_cast<int>(mesh.vertices.size()))
+      fail(path, "PLY face index out of range");
+  return mesh;
+}
+
+}  // namespace
+
+Mesh loadMesh(const std::string& path, double scale) {
+  const std::string ext = lowerExtension(path);
+  const std::string data = readAll(path);
+  if (data.empty()) fail(path, "file is empty");
+  Mesh mesh;
+  if (ext == "stl") {
+    mesh = looksLikeBinaryStl(data) ? parseBinaryStl(path, data)
+           : data.rfind("solid", 0) == 0
+               ? parseAsciiStl(path, data)
+               : (fail(path, "neither a binary STL (size mismatch) nor an ascii one"), Mesh{});
+  } else if (ext == "obj") {
+    mesh = parseObj(path, data);
+  } else if (ext == "ply") {
+    mesh = parsePly(path, data);
+  } else {
+    fail(path, "unknown extension '." + ext + "' (expected .stl, .obj or .ply)");
+  }
+  if (mesh.triangles.empty()) fail(path, "no triangles");
+  for (auto& v : mesh.vertices) {
+    if (!v.allFinite()) fail(path, "non-finite vertex coordinate");
+    v *= scale;
+  }
+  if (surfaceArea(mesh) <= 0.0) fail(path, "all triangles are degenerate (zero area)");
+  return mesh;
+}
+
+void saveStl(const Mesh& mesh, const std::string& path) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw MeshError("mesh '" + path + "': cannot write file");
+  char header[80] = "depowder binary STL, metres";
+  out.write(header, 80);
+  const auto n = static_cast<std::uint32_t>(mesh.triangles.size());
+  out.write(reinterpret_cast<const char*>(&n), 4);
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    float rec[12];
+    const Eigen::Vector3d nrm = triangleNormal(mesh, i);
+    for (int k = 0; k < 3; ++k) rec[k] = static_cast<float>(nrm[k]);
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k) rec[3 + 3 * c + k] = static_cast<float>(mesh.vertices[mesh.triangles[i][c]][k]);
+    out.write(reinterpret_cast<const char*>(rec), sizeof(rec));
+    const std::uint16_t attr = 0;
+    out.write(reinterpret_cast<const char*>(&attr), 2);
+  }
+  if (!out) throw MeshError("mesh '" + path + "': write failed");
+}
+
+void append(Mesh& a, const Mesh& b) {
+  const int offset = static_cast<int>(a.vertices.size());
+  a.vertices.insert(a.vertices.end(), b.vertices.begin(), b.vertices.end());
+  for (const auto& t : b.triangles) a.triangles.push_back(t.array() + offset);
+}
+
+Mesh transformed(const Mesh& mesh, const Pose& T) {
+  Mesh out = mesh;
+  for (auto& v : out.vertices) v = T * v;
+  return out;
+}
+
+namespace {
+double triangleArea(const Mesh& m, const Eigen::Vector3i& t) {
+  return 0.5 * (m.vertices[t[1]] - m.vertices[t[0]]).cross(m.vertices[t[2]] - m.vertices[t[0]]).norm();
+}
+}  // namespace
+
+double surfaceArea(const Mesh& mesh) {
+  double area = 0;
+  for (const auto& t : mesh.triangles) area += triangleArea(mesh, t);
+  return area;
+}
+
+double volume(const Mesh& mesh) {
+  double v = 0;
+  for (const auto& t : mesh.triangles)
+    v += mesh.vertices[t[0]].dot(mesh.vertices[t[1]].cross(mesh.vertices[t[2]])) / 6.0;
+  return v;
+}
+
+Eigen::AlignedBox3d bounds(const Mesh& mesh) {
+  Eigen::AlignedBox3d box;
+  for (const auto& v : mesh.vertices) box.extend(v);
+  return box;
+}
+
+Eigen::Vector3d triangleNormal(const Mesh& mesh, std::size_t i) {
+  const auto& t = mesh.triangles[i];
+  const Eigen::Vector3d n =
+      (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
+  const double len = n.norm();
+  return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
+}
+
+SurfaceSamples sampleSurfaceCount(const Mesh& mesh, std::size_t count, std::uint32_t seed) {
+  std::vector<double> cumulative(mesh.triangles.size());
+  double total = 0;
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+    cumulative[i] = total += triangleArea(mesh, mesh.triangles[i]);
+  if (total <= 0) throw MeshError("mesh has no surface area to sample");
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  SurfaceSamples s;
+  s.points.reserve(count);
+  s.normals.reserve(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    const double pick = uniform(rng) * total;
+    const std::size_t i = std::min<std::size_t>(
+        std::upper_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin(), cumulative.size() - 1);
+    const auto& t = mesh.triangles[i];
+    double a = uniform(rng), b = uniform(rng);
+    if (a + b > 1) a = 1 - a, b = 1 - b;  // fold into the triangle: uniform barycentric
+    const auto& v0 = mesh.vertices[t[0]];
+    s.points.push_back(v0 + a * (mesh.vertices[t[1]] - v0) + b * (mesh.vertices[t[2]] - v0));
+    s.normals.push_back(triangleNormal(mesh, i));
+  }
+  return s;
+}
+
+SurfaceSamples sampleSurface(const Mesh& mesh, double spacing, std::uint32_t seed) {
+  const double area = surfaceArea(mesh);
+  if (!(spacing > 0)) throw MeshError("sample spacing must be positive");
+  return sampleSurfaceCount(mesh, static_cast<std::size_t>(std::ceil(area / (spacing * spacing))), seed);
+}
+
+namespace {
+// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
+Eigen::Vector3d closestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                  const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+}  // namespace
+
+double distanceToMesh(const Mesh& mesh, const Eigen::Vector3d& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& t : mesh.triangles)
+    best = std::min(best,
+                    (p - closestOnTriangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]])).norm());
+  return best;
+}
+
+}  // namespace depowder

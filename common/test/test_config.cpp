@@ -1,0 +1,77 @@
+#include <gtest/gtest.h>
+
+#include "depowder/node/cell.hpp"
+
+using namespace depowder::node;
+
+namespace {
+// Expects a ConfigError whose message contains every one of `parts`.
+void expectError(const std::string& yaml, const std::vector<std::string>& parts) {
+  try {
+    loadCellFromString(yaml, "bad.yaml");
+    ADD_FAILURE() << "accepted:\n" << yaml;
+  } catch (const ConfigError& e) {
+    for (const auto& p : parts)
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what() << " lacks " << p;
+  }
+}
+}  // namespace
+
+TEST(Config, DefaultCellLoads) {
+  const CellConfig cell = loadCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/cell.yaml");
+  EXPECT_EQ(cell.cameras.size(), 2u);
+  ASSERT_GE(cell.parts.size(), 1u);
+  for (const auto& p : cell.parts) EXPECT_NE(p.mesh.find("config/parts/"), std::string::npos) << p.mesh;
+  // L515: 70 x 55 deg.
+  EXPECT_NEAR(cell.cameras[0].fx(), 0.5 * 320 / std::tan(35 * M_PI / 180), 1e-9);
+  // Cameras look at the box: the optical axis points down into it.
+  EXPECT_LT((cell.cameras[0].T_cell_camera.linear() * Eigen::Vector3d::UnitZ()).z(), -0.5);
+}
+
+TEST(Config, LookAtPointsTheOpticalAxis) {
+  const auto T = lookAt({0, -1, 1}, {0, 0, 0});
+  EXPECT_TRUE((T.linear() * Eigen::Vector3d::UnitZ()).isApprox(Eigen::Vector3d(0, 1, -1).normalized()));
+  EXPECT_TRUE(depowder::isValidPose(T));
+  EXPECT_LT((T.linear() * Eigen::Vector3d::UnitY()).z(), 0);  // image y points down in the world
+}
+
+TEST(Config, BadKeysAndValuesNameFileKeyAndRange) {
+  expectError("tracker: {}\nbogus: 1\n", {"bad.yaml", "unknown key 'bogus'"});
+  expectError("box: {size: [0.4, 0.3], wall: 0.01}\n", {"bad.yaml", "'box.size'", "3 numbers"});
+  expectError("box: {size: [0.4, 0.3, -1]}\n", {"'box.size'", "(0, 5]"});
+  expectError("box: {wall: 0.5}\n", {"'box.wall'", "out of range", "[0, 0.2]"});
+  expectError("box: {wall: thick}\n", {"'box.wall'", "a number"});
+  expectError("cameras:\n  - {name: A, width: 8}\n", {"'cameras[0].width'", "[16, 4096]"});
+  expectError("cameras:\n  - {width: 320}\n", {"'cameras[0].name'", "required"});
+  expectError("cameras:\n  - {name: A, colour: red}\n", {"unknown key 'colour'", "cameras[0]"});
+  expectError("cameras:\n  - {name: A, min_range: 2, max_range: 1}\n", {"max_range", "greater than min_range"});
+  expectError("cameras:\n  - {name: A}\n  - {name: A}\n", {"'cameras[1].name'", "used twice"});
+  expectError("parts:\n  - {name: p}\n", {"'parts[0].mesh'", "required"});
+  expectError("parts:\n  - {name: p, mesh: a.stl, xi: 2}\n", {"'parts[0].xi'", "[0.0005, 0.1]"});
+  expectError("parts:\n  - {name: p, mesh: a.stl, initial_pose: {xyz: [0, 0, 0], rpy_deg: [0, 0]}}\n",
+              {"'parts[0].initial_pose.rpy_deg'"});
+  expectError("parts:\n  - {name: p, mesh: a.stl, initial_pose: {xyz: [0, 0, .nan]}}\n",
+              {"'parts[0].initial_pose.xyz'", "finite"});
+  expectError("parts: {name: p}\n", {"'parts'", "must be a list"});
+  expectError("box: [1, 2\n", {"bad.yaml", "not valid YAML"});
+  try {
+    loadCell("/nonexistent/cell.yaml");
+    ADD_FAILURE();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/cell.yaml"), std::string::npos);
+  }
+}
+
+TEST(Config, ModuleSectionsAreLeftToTheirModulesAndChecked) {
+  const CellConfig cell = loadCellFromString("tracker: {method: cu, typo: 1}\n");
+  const YamlReader tracker = cell.root.child("tracker");
+  std::string method;
+  tracker.read("method", method);
+  EXPECT_EQ(method, "cu");
+  try {
+    tracker.finish();
+    ADD_FAILURE();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown key 'typo' in 'tracker'"), std::string::npos) << e.what();
+  }
+}

@@ -1,0 +1,70 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "depowder/geometry.hpp"
+#include "depowder/point_grid.hpp"
+
+using namespace depowder;
+
+TEST(Geometry, RotationAngleOfKnownRotation) {
+  const Pose a = makePoseRpy({0, 0, 0}, 0, 0, 0);
+  const Pose b = makePoseRpy({0, 0, 0}, 0, 0, 0.5);
+  EXPECT_NEAR(rotationAngle(a.linear(), b.linear()), 0.5, 1e-12);
+  EXPECT_NEAR(rotationAngle(b.linear(), b.linear()), 0.0, 1e-7);
+}
+
+TEST(Geometry, ValidPoseRejectsNanAndShear) {
+  Pose p = makePoseRpy({1, 2, 3}, 0.1, 0.2, 0.3);
+  EXPECT_TRUE(isValidPose(p));
+  Pose nan = p;
+  nan.translation().x() = std::nan("");
+  EXPECT_FALSE(isValidPose(nan));
+  Pose shear = p;
+  shear.linear()(0, 1) += 0.1;
+  EXPECT_FALSE(isValidPose(shear));
+}
+
+TEST(PointGrid, NearestMatchesBruteForce) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  Cloud cloud(5000);
+  for (auto& p : cloud) p = Point(u(rng), u(rng), u(rng) * 0.5);
+  const PointGrid grid(cloud, 0.01);
+  for (int k = 0; k < 2000; ++k) {
+    const Point q(u(rng), u(rng), u(rng));
+    const double r = k % 2 ? 0.01 : 0.03;  // also radii larger than the cell
+    int best = -1;
+    double best_d2 = r * r;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if ((cloud[i] - q).squaredNorm() <= best_d2) {
+        best_d2 = (cloud[i] - q).squaredNorm();
+        best = static_cast<int>(i);
+      }
+    }
+    const auto hit = grid.nearest(q, r);
+    ASSERT_EQ(hit.index, best) << "query " << k;
+    if (best >= 0) {
+      EXPECT_DOUBLE_EQ(hit.distance2, best_d2);
+    }
+  }
+}
+
+TEST(PointGrid, EmptyCloudAndNanQueryFindNothing) {
+  const Cloud empty;
+  EXPECT_FALSE(PointGrid(empty, 0.01).nearest(Point::Zero(), 1.0).found());
+  const Cloud one{Point::Zero()};
+  EXPECT_FALSE(PointGrid(one, 0.01).nearest(Point(NAN, 0, 0), 1.0).found());
+}
+
+TEST(VoxelDownsample, OneCentroidPerVoxel) {
+  Cloud cloud;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j) cloud.emplace_back(0.001 * i, 0.001 * j, 0.0);  // 1 cm square, 1 mm pitch
+  cloud.emplace_back(NAN, 0, 0);
+  const Cloud down = voxelDownsample(cloud, 0.005);
+  ASSERT_EQ(down.size(), 4u);
+  for (const auto& p : down) EXPECT_TRUE(p.allFinite());
+  EXPECT_NEAR(down[0].x(), 0.002, 1e-12);  // mean of 0..4 mm
+}

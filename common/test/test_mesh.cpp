@@ -1,0 +1,140 @@
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "depowder/mesh.hpp"
+
+using namespace depowder;
+
+namespace {
+
+std::string tmpFile(const std::string& name, const std::string& content) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path, std::ios::binary) << content;
+  return path;
+}
+
+// A unit tetrahedron, outward winding.
+Mesh tetra() {
+  Mesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  return m;
+}
+
+const char* kAsciiStl = R"(solid t
+facet normal 0 0 -1
+ outer loop
+  vertex 0 0 0
+  vertex 0 1 0
+  vertex 1 0 0
+ endloop
+endfacet
+facet normal 0 -1 0
+ outer loop
+  vertex 0 0 0
+  vertex 1 0 0
+  vertex 0 0 1
+ endloop
+endfacet
+facet normal -1 0 0
+ outer loop
+  vertex 0 0 0
+  vertex 0 0 1
+  vertex 0 1 0
+ endloop
+endfacet
+facet normal 1 1 1
+ outer loop
+  vertex 1 0 0
+  vertex 0 1 0
+  vertex 0 0 1
+ endloop
+endfacet
+endsolid t
+)";
+
+const char* kObj = "# tetra\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1/1 2/2 4/4\nf -4 -1 -2\nf 2 3 4\n";
+
+const char* kPlyAscii =
+    "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+    "element face 4\nproperty list uchar int vertex_indices\nend_header\n"
+    "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+
+void expectTetra(const Mesh& m, double scale = 1.0) {
+  ASSERT_EQ(m.triangles.size(), 4u);
+  EXPECT_NEAR(volume(m), scale * scale * scale / 6.0, 1e-9);
+}
+
+}  // namespace
+
+TEST(MeshLoad, AsciiStl) { expectTetra(loadMesh(tmpFile("t.stl", kAsciiStl))); }
+
+TEST(MeshLoad, BinaryStlRoundTrip) {
+  const std::string path = ::testing::TempDir() + "tb.stl";
+  saveStl(tetra(), path);
+  expectTetra(loadMesh(path));
+  expectTetra(loadMesh(path, 0.001), 0.001);
+}
+
+TEST(MeshLoad, Obj) { expectTetra(loadMesh(tmpFile("t.obj", kObj))); }
+
+TEST(MeshLoad, PlyAscii) { expectTetra(loadMesh(tmpFile("t.ply", kPlyAscii))); }
+
+TEST(MeshLoad, PlyBinary) {
+  std::string ply =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+      "property double z\nelement face 4\nproperty list uchar uint vertex_indices\nend_header\n";
+  const Mesh t = tetra();
+  for (const auto& v : t.vertices) ply.append(reinterpret_cast<const char*>(v.data()), 24);
+  for (const auto& f : t.triangles) {
+    ply.push_back(3);
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t i = f[k];
+      ply.append(reinterpret_cast<const char*>(&i), 4);
+    }
+  }
+  expectTetra(loadMesh(tmpFile("tb.ply", ply)));
+}
+
+TEST(MeshLoad, BrokenFilesNameTheFile) {
+  const std::vector<std::pair<std::string, std::string>> broken = {
+      {"missing.stl", ""},  // not written: does not exist
+      {"empty.stl", "\n"},
+      {"garbage.stl", "this is not a mesh at all, not binary either"},
+      {"noface.obj", "v 0 0 0\nv 1 0 0\n"},
+      {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"},
+      {"short.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nend_header\n0\n"},
+      {"flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"},
+      {"mesh.xyz", "0 0 0\n"},
+  };
+  for (const auto& [name, content] : broken) {
+    const std::string path =
+        name == "missing.stl" ? ::testing::TempDir() + "does_not_exist.stl" : tmpFile(name, content);
+    try {
+      loadMesh(path);
+      ADD_FAILURE() << name << " loaded";
+    } catch (const MeshError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(MeshSample, PointsLieOnTheSurfaceWithUnitNormals) {
+  const Mesh m = tetra();
+  const SurfaceSamples s = sampleSurface(m, 0.02, 3);
+  ASSERT_GT(s.points.size(), 1000u);
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    ASSERT_LT(distanceToMesh(m, s.points[i]), 1e-6);
+    ASSERT_NEAR(s.normals[i].norm(), 1.0, 1e-9);
+  }
+  // Seeded: identical twice.
+  EXPECT_EQ(sampleSurface(m, 0.02, 3).points, s.points);
+  // Area-weighted: the slanted face (area sqrt(3)/2 of 1.5 + sqrt(3)/2) gets its share.
+  std::size_t slanted = 0;
+  for (const auto& n : s.normals) slanted += n.sum() > 1.5;
+  const double expected = (std::sqrt(3.0) / 2) / (1.5 + std::sqrt(3.0) / 2);
+  EXPECT_NEAR(static_cast<double>(slanted) / s.points.size(), expected, 0.03);
+}
