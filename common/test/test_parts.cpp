@@ -1,0 +1,147 @@
+// The default cell's parts: size, frame, closed outward-wound shells, and the committed STLs.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "depowder/mesh.hpp"
+#include "depowder/parts.hpp"
+
+namespace {
+
+using depowder::Mesh;
+
+// Merges vertices at the same position (to 1 nm), so the closedness check is about geometry,
+// not about how the generator or the STL loader happened to index vertices.
+Mesh welded(const Mesh& mesh) {
+  std::map<std::tuple<long long, long long, long long>, int> index;
+  std::vector<int> remap(mesh.vertices.size());
+  Mesh out;
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const auto& v = mesh.vertices[i];
+    const auto key = std::make_tuple(std::llround(v.x() * 1e9), std::llround(v.y() * 1e9), std::llround(v.z() * 1e9));
+    const auto [it, inserted] = index.emplace(key, static_cast<int>(out.vertices.size()));
+    if (inserted) out.vertices.push_back(v);
+    remap[i] = it->second;
+  }
+  for (const auto& t : mesh.triangles) out.triangles.emplace_back(remap[t[0]], remap[t[1]], remap[t[2]]);
+  return out;
+}
+
+// Empty if every edge of the welded mesh is used exactly once in each direction (closed,
+// manifold along edges, consistently wound); otherwise describes the first problem found.
+std::string closednessProblem(const Mesh& raw) {
+  const Mesh mesh = welded(raw);
+  std::map<std::pair<int, int>, int> directed;
+  for (const auto& t : mesh.triangles) {
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return "degenerate triangle (repeated vertex)";
+    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
+  }
+  for (const auto& [edge, count] : directed) {
+    const auto back = directed.find({edge.second, edge.first});
+    const int reverse = back == directed.end() ? 0 : back->second;
+    if (count != 1 || reverse != 1)
+      return "edge " + std::to_string(edge.first) + "->" + std::to_string(edge.second) + " used " +
+             std::to_string(count) + " times, reverse " + std::to_string(reverse) + " times";
+  }
+  return "";
+}
+
+// Connected components of the welded mesh (shells), as lists of triangle indices.
+std::vector<std::vector<std::size_t>> shells(const Mesh& mesh) {
+  std::vector<int> parent(mesh.vertices.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const auto& t : mesh.triangles) {
+    parent[find(t[1])] = find(t[0]);
+    parent[find(t[2])] = find(t[0]);
+  }
+  std::map<int, std::vector<std::size_t>> byRoot;
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) byRoot[find(mesh.triangles[i][0])].push_back(i);
+  std::vector<std::vector<std::size_t>> out;
+  for (auto& [root, tris] : byRoot) out.push_back(std::move(tris));
+  return out;
+}
+
+class PartTest : public ::testing::TestWithParam<std::string> {
+ protected:
+  Mesh part() const { return depowder::parts::byName(GetParam()); }
+};
+
+TEST_P(PartTest, DiagonalIsEightToFifteenCentimetres) {
+  const double diagonal = depowder::bounds(part()).sizes().norm();
+  EXPECT_GE(diagonal, 0.08);
+  EXPECT_LE(diagonal, 0.15);
+}
+
+TEST_P(PartTest, BoundingBoxIsCentredAtOrigin) {
+  const Eigen::Vector3d centre = depowder::bounds(part()).center();
+  EXPECT_LT(centre.cwiseAbs().maxCoeff(), 1e-9) << centre.transpose();
+}
+
+TEST_P(PartTest, VolumeIsPositiveAndSmallerThanBoundingBox) {
+  const Mesh mesh = part();
+  const double volume = depowder::volume(mesh);
+  EXPECT_GT(volume, 0.0);
+  EXPECT_LE(volume, depowder::bounds(mesh).volume() * (1 + 1e-9));  // equal for the cube
+}
+
+TEST_P(PartTest, EveryEdgeIsSharedByTwoOppositelyWoundTriangles) { EXPECT_EQ(closednessProblem(part()), ""); }
+
+TEST_P(PartTest, EveryShellIsWoundOutward) {
+  const Mesh mesh = welded(part());
+  const auto components = shells(mesh);
+  ASSERT_FALSE(components.empty());
+  for (std::size_t s = 0; s < components.size(); ++s) {
+    Mesh shell = mesh;
+    shell.triangles.clear();
+    for (std::size_t i : components[s]) shell.triangles.push_back(mesh.triangles[i]);
+    EXPECT_GT(depowder::volume(shell), 0.0) << "shell " << s << " of " << components.size();
+  }
+}
+
+TEST_P(PartTest, TriangleCountIsReasonable) {
+  const std::size_t n = part().triangles.size();
+  EXPECT_GE(n, 12u);
+  EXPECT_LE(n, 4000u);  // keeps each binary STL under about 200 KB
+}
+
+TEST_P(PartTest, CommittedStlMatchesGenerator) {
+  const Mesh generated = part();
+  const std::string path = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/" + GetParam() + ".stl";
+  const Mesh loaded = depowder::loadMesh(path);
+  ASSERT_EQ(loaded.triangles.size(), generated.triangles.size())
+      << path << " is stale: regenerate with depowder-make-parts config/parts";
+  const auto a = depowder::bounds(loaded), b = depowder::bounds(generated);
+  EXPECT_LT((a.min() - b.min()).cwiseAbs().maxCoeff(), 1e-6) << path;
+  EXPECT_LT((a.max() - b.max()).cwiseAbs().maxCoeff(), 1e-6) << path;
+  EXPECT_EQ(closednessProblem(loaded), "") << path;
+}
+
+INSTANTIATE_TEST_SUITE_P(DefaultParts, PartTest, ::testing::ValuesIn(depowder::parts::names()),
+                         [](const ::testing::TestParamInfo<std::string>& param) { return param.param; });
+
+TEST(Parts, NamesAreTheFiveDefaultParts) {
+  EXPECT_EQ(depowder::parts::names(), (std::vector<std::string>{"cube", "cup", "propeller", "owl", "pipe"}));
+}
+
+TEST(Parts, UnknownNameThrowsNamingTheKnownParts) {
+  try {
+    depowder::parts::byName("teapot");
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("teapot"), std::string::npos) << what;
+    for (const auto& name : depowder::parts::names()) EXPECT_NE(what.find(name), std::string::npos) << what;
+  }
+}
+
+}  // namespace
