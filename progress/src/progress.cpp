@@ -1,0 +1,199 @@
+#include "depowder/progress/progress.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+#include "depowder/point_grid.hpp"
+#include "depowder/progress/footprint.hpp"
+
+namespace depowder::progress {
+namespace {
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+/// The first config problem, or "" if none.
+std::string checkConfig(double xi, const ProgressConfig& c) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+  if (!positive(xi)) return "xi must be a positive distance in m, got " + fmt(xi);
+  if (!positive(c.band_width)) return "band_width must be > 0 m, got " + fmt(c.band_width);
+  if (!std::isfinite(c.band_offset) || xi + c.band_offset <= 0)
+    return "band_offset must keep xi + band_offset > 0, got " + fmt(c.band_offset);
+  if (!std::isfinite(c.top_margin)) return "top_margin must be finite";
+  if (!std::isfinite(c.cover_margin) || c.cover_margin < 0) return "cover_margin must be >= 0 m";
+  if (c.min_band_points < 1) return "min_band_points must be >= 1";
+  if (!std::isfinite(c.outlier_mad_k) || c.outlier_mad_k < 0) return "outlier_mad_k must be >= 0";
+  if (!std::isfinite(c.outlier_floor) || c.outlier_floor < 0) return "outlier_floor must be >= 0 m";
+  if (!positive(c.grid_cell)) return "grid_cell must be > 0 m";
+  if (!positive(c.contour_spacing)) return "contour_spacing must be > 0 m";
+  if (!positive(c.contour_radius)) return "contour_radius must be > 0 m";
+  return "";
+}
+
+double median(std::vector<double> v) {
+  const std::size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  return v[mid];
+}
+
+/// Heights of the contour vertices: the mean band height within `radius`; vertices with no band
+/// point near them are interpolated along the loop from their measured neighbours.
+void liftContour(const Polyline2& loop, const Cloud& band, double radius, double fallback, Cloud& out) {
+  const std::size_t n = loop.size();
+  std::vector<double> z(n, 0.0);
+  std::vector<char> known(n, 0);
+  const double r2 = radius * radius;
+  for (std::size_t i = 0; i < n; ++i) {
+    double sum = 0;
+    int count = 0;
+    for (const Point& p : band)
+      if ((p.head<2>() - loop[i]).squaredNorm() <= r2) sum += p.z(), ++count;
+    if (count > 0) z[i] = sum / count, known[i] = 1;
+  }
+  const auto first = std::find(known.begin(), known.end(), 1);
+  if (first == known.end()) {
+    std::fill(z.begin(), z.end(), fallback);
+  } else {
+    // Walk once around from a measured vertex, filling each gap linearly between its ends.
+    const std::size_t k0 = static_cast<std::size_t>(first - known.begin());
+    std::size_t last = k0;
+    for (std::size_t step = 1; step <= n; ++step) {
+      const std::size_t i = (k0 + step) % n;
+      if (!known[i]) continue;
+      const std::size_t gap = (i + n - last) % n == 0 ? n : (i + n - last) % n;
+      for (std::size_t g = 1; g < gap; ++g) z[(last + g) % n] = z[last] + (z[i] - z[last]) * double(g) / gap;
+      last = i;
+    }
+  }
+  out.clear();
+  out.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) out.emplace_back(loop[i].x(), loop[i].y(), z[i]);
+}
+
+}  // namespace
+
+const char* toString(Status s) {
+  switch (s) {
+    case Status::kOk:
+      return "ok";
+    case Status::kNoPose:
+      return "no_pose";
+    case Status::kNoPoints:
+      return "no_points";
+    case Status::kNoContour:
+      return "no_contour";
+    case Status::kBadConfig:
+      return "bad_config";
+  }
+  return "unknown";
+}
+
+double etaFromHeights(double h_pow, double h_max, double h_min) {
+  // Eq. 2; "if H_pow is higher than H_max, H_pow is truncated to H_max" (Sec. IV-C). Below the
+  // bottom (powder dug under the part) the part is fully uncovered: eta is capped at 1.
+  const double eta = (h_max - std::min(h_pow, h_max)) / (h_max - h_min);
+  return std::clamp(eta, 0.0, 1.0);
+}
+
+ProgressEstimate estimateProgress(const Cloud& cad_in_cell, const Cloud& scan, double xi,
+                                  const ProgressConfig& config) {
+  ProgressEstimate out;
+  auto fail = [&out](Status s, std::string why) {
+    out.status = s;
+    out.reason = std::move(why);
+    return out;
+  };
+
+  // 1. Inputs.
+  if (std::string why = checkConfig(xi, config); !why.empty()) return fail(Status::kBadConfig, why);
+  if (cad_in_cell.empty()) return fail(Status::kNoPose, "no CAD samples (no pose or no model)");
+  for (const Point& p : cad_in_cell)
+    if (!p.allFinite()) return fail(Status::kNoPose, "CAD samples contain NaN/inf: the pose is invalid");
+  if (scan.empty()) return fail(Status::kNoPoints, "the scan is empty");
+
+  // 2. H_max, H_min: the CAD's top and bottom at the current pose (Eq. 2).
+  out.h_max = -std::numeric_limits<double>::infinity();
+  out.h_min = std::numeric_limits<double>::infinity();
+  for (const Point& p : cad_in_cell) out.h_max = std::max(out.h_max, p.z()), out.h_min = std::min(out.h_min, p.z());
+  if (out.h_max - out.h_min < 1e-4) return fail(Status::kNoPose, "CAD samples span no height (< 0.1 mm in z)");
+
+  // 3. The footprint and the band radii around it.
+  const double r_in = xi + config.band_offset;
+  const double r_out = r_in + config.band_width;
+  const double level = 0.5 * (r_in + r_out);  // the contour runs along the band's centre line
+  const Footprint footprint(cad_in_cell, config.grid_cell, r_in, r_out + config.contour_radius);
+  const PointGrid cad_grid(cad_in_cell, xi);
+  Eigen::AlignedBox3d near_box = bounds(cad_in_cell);
+  Eigen::AlignedBox2d band_box(near_box.min().head<2>(), near_box.max().head<2>());
+  near_box.min().array() -= xi;
+  near_box.max().array() += xi;
+  band_box.min().array() -= r_out;
+  band_box.max().array() += r_out;
+
+  // 4. Segmentation (Fig. 8a) and band candidates (Fig. 8b).
+  std::size_t finite = 0;
+  Cloud candidates;
+  for (const Point& p : scan) {
+    if (!p.allFinite()) continue;
+    ++finite;
+    if (!band_box.contains(p.head<2>())) continue;
+    if (near_box.contains(p) && cad_grid.nearest(p, xi).found()) {
+      out.part.push_back(p);  // within xi of the posed CAD surface
+      continue;
+    }
+    const double d = footprint.distance(p.head<2>(), r_out);  // +inf beyond the band
+    if (d <= r_in || !footprint.outside(p.head<2>())) {
+      // Over the part: its top when the part is buried (paper footnote), else powder on or in it.
+      if (p.z() >= out.h_max - xi && p.z() <= out.h_max + config.cover_margin) out.part.push_back(p);
+      continue;
+    }
+    if (d > r_in && d <= r_out) candidates.push_back(p);
+  }
+  out.part_points = out.part.size();
+  if (finite == 0) return fail(Status::kNoPoints, "all " + std::to_string(scan.size()) + " points are NaN/inf");
+  auto noContour = [&](std::size_t n) {
+    return fail(Status::kNoContour, std::to_string(n) + " powder points in the band (" + fmt(r_in * 100) + ", " +
+                                        fmt(r_out * 100) + "] cm around the part, need " +
+                                        std::to_string(config.min_band_points));
+  };
+  if (candidates.size() < static_cast<std::size_t>(config.min_band_points)) return noContour(candidates.size());
+
+  // 5. H_pow: mean band height without height outliers (median / MAD), and, unless the part is
+  // buried, without points above the CAD top (the authors' rule; it drops the nozzle and arm).
+  std::vector<double> z;
+  z.reserve(candidates.size());
+  for (const Point& p : candidates) z.push_back(p.z());
+  const double med = median(z);
+  for (double& v : z) v = std::abs(v - med);
+  const double mad = median(z);
+  const double keep = config.outlier_mad_k > 0 ? std::max(config.outlier_mad_k * 1.4826 * mad, config.outlier_floor)
+                                               : std::numeric_limits<double>::infinity();
+  out.covered = med >= out.h_max;
+  double sum = 0;
+  for (const Point& p : candidates) {
+    const bool inlier = std::abs(p.z() - med) <= keep && (out.covered || p.z() <= out.h_max + config.top_margin);
+    if (inlier) {
+      out.band.push_back(p);
+      sum += p.z();
+    }
+  }
+  out.band_outliers = candidates.size() - out.band.size();
+  if (out.band.size() < static_cast<std::size_t>(config.min_band_points)) return noContour(out.band.size());
+  out.h_pow = sum / out.band.size();
+
+  // 6. Eq. 2.
+  out.eta = etaFromHeights(out.h_pow, out.h_max, out.h_min);
+
+  // 7. The ordered contour: the band's centre line around the silhouette, at the local powder height.
+  const Polyline2 loop = footprint.outerContour(level, config.contour_spacing);
+  liftContour(loop, out.band, config.contour_radius, out.h_pow, out.contour);
+  out.status = Status::kOk;
+  return out;
+}
+
+}  // namespace depowder::progress
