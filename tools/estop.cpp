@@ -30,11 +30,16 @@ int main(int argc, char** argv) {
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage(("missing value after " + a).c_str());
-    if (a == "--reason") reason = argv[++i];
-    else if (a == "--repeat") repeat = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--url") url = argv[++i];
-    else if (a == "--prefix") prefix = argv[++i];
-    else return usage(("unknown option " + a).c_str());
+    if (a == "--reason")
+      reason = argv[++i];
+    else if (a == "--repeat")
+      repeat = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--url")
+      url = argv[++i];
+    else if (a == "--prefix")
+      prefix = argv[++i];
+    else
+      return usage(("unknown option " + a).c_str());
   }
   try {
     depowder::node::Bus bus(url, prefix);

@@ -39,11 +39,16 @@ int main(int argc, char** argv) {
       continue;
     }
     if (i + 1 >= argc) return usage(("missing value after " + a).c_str());
-    if (a == "--wait-for") wait_for = argv[++i];
-    else if (a == "--timeout") timeout = std::atof(argv[++i]);
-    else if (a == "--url") url = argv[++i];
-    else if (a == "--prefix") prefix = argv[++i];
-    else return usage(("unknown option " + a).c_str());
+    if (a == "--wait-for")
+      wait_for = argv[++i];
+    else if (a == "--timeout")
+      timeout = std::atof(argv[++i]);
+    else if (a == "--url")
+      url = argv[++i];
+    else if (a == "--prefix")
+      prefix = argv[++i];
+    else
+      return usage(("unknown option " + a).c_str());
   }
   if (once && timeout < 0) timeout = 2;
   try {
@@ -78,7 +83,8 @@ int main(int argc, char** argv) {
       const double elapsed = std::chrono::duration<double>(now - start).count();
       if (timeout >= 0 && elapsed >= timeout) {
         if (once) print();
-        if (!wait_for.empty()) std::cerr << "depowder-status: no heartbeat from " << wait_for << " in " << timeout << " s\n";
+        if (!wait_for.empty())
+          std::cerr << "depowder-status: no heartbeat from " << wait_for << " in " << timeout << " s\n";
         return wait_for.empty() ? 0 : 1;
       }
       if (!once && wait_for.empty() && now - last_print >= std::chrono::seconds(1)) {

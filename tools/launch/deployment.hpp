@@ -11,13 +11,13 @@ namespace depowder::launch {
 enum class Restart { kNever, kOnFailure, kAlways };
 
 struct ProcessSpec {
-  std::string name;                ///< short name, prefixes its output lines
-  std::string command;             ///< executable; without '/', looked up beside depowder-launch, then in PATH
-  std::vector<std::string> args;   ///< ${VAR} expands from --set VAR=value and the built-ins
+  std::string name;               ///< short name, prefixes its output lines
+  std::string command;            ///< executable; without '/', looked up beside depowder-launch, then in PATH
+  std::vector<std::string> args;  ///< ${VAR} expands from --set VAR=value and the built-ins
   Restart restart = Restart::kOnFailure;
-  int max_restarts = 10;           ///< then the process is FAILED
-  double start_delay_s = 0.0;      ///< wait before starting the next process
-  bool ends_run = false;           ///< when it exits, the launcher stops all and exits with its code
+  int max_restarts = 10;       ///< then the process is FAILED
+  double start_delay_s = 0.0;  ///< wait before starting the next process
+  bool ends_run = false;       ///< when it exits, the launcher stops all and exits with its code
 };
 
 struct HostSpec {
@@ -27,7 +27,7 @@ struct HostSpec {
 
 struct Deployment {
   std::string file;
-  std::string lcm_url;  ///< exported as LCM_DEFAULT_URL to every process ("" = inherit)
+  std::string lcm_url;                           ///< exported as LCM_DEFAULT_URL to every process ("" = inherit)
   std::map<std::string, std::string> variables;  ///< defaults for ${VAR}
   std::vector<HostSpec> hosts;
 };

@@ -37,7 +37,8 @@ struct Supervisor::Proc {
   std::unique_ptr<std::ofstream> log;
 };
 
-Supervisor::Supervisor(HostSpec host, SupervisorOptions options) : host_(std::move(host)), options_(std::move(options)) {
+Supervisor::Supervisor(HostSpec host, SupervisorOptions options)
+    : host_(std::move(host)), options_(std::move(options)) {
   for (const ProcessSpec& spec : host_.processes) {
     Proc p;
     p.spec = spec;
@@ -140,7 +141,8 @@ void Supervisor::reap() {
       if (p.state == process_status_t::STOPPED) break;
       const bool again = p.spec.restart == Restart::kAlways || (failed && p.spec.restart == Restart::kOnFailure);
       if (again && p.restarts < p.spec.max_restarts && !p.spec.ends_run) {
-        const double delay = std::min(options_.backoff_max_s, options_.backoff_initial_s * (1 << std::min(p.restarts, 16)));
+        const double delay =
+            std::min(options_.backoff_max_s, options_.backoff_initial_s * (1 << std::min(p.restarts, 16)));
         p.state = process_status_t::RESTARTING;
         p.next_start = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay));
         emit(p, "launcher: exited with " + std::to_string(p.last_exit) + "; restart " + std::to_string(p.restarts + 1) +

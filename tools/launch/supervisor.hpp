@@ -13,14 +13,14 @@
 namespace depowder::launch {
 
 struct SupervisorOptions {
-  std::string bin_dir;                        ///< where depowder-* executables are looked up first
-  std::string run_dir;                        ///< <name>.log per process ("" = no log files)
-  std::string lcm_url;                        ///< LCM_DEFAULT_URL for the children ("" = inherit)
-  std::map<std::string, std::string> vars;    ///< ${VAR} values
-  bool echo = true;                           ///< copy output lines to our stdout
-  double backoff_initial_s = 0.5;             ///< first restart delay, doubled each time
+  std::string bin_dir;                      ///< where depowder-* executables are looked up first
+  std::string run_dir;                      ///< <name>.log per process ("" = no log files)
+  std::string lcm_url;                      ///< LCM_DEFAULT_URL for the children ("" = inherit)
+  std::map<std::string, std::string> vars;  ///< ${VAR} values
+  bool echo = true;                         ///< copy output lines to our stdout
+  double backoff_initial_s = 0.5;           ///< first restart delay, doubled each time
   double backoff_max_s = 8.0;
-  double stop_timeout_s = 5.0;                ///< SIGTERM, then SIGKILL after this long
+  double stop_timeout_s = 5.0;  ///< SIGTERM, then SIGKILL after this long
 };
 
 class Supervisor {

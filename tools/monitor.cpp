@@ -1,0 +1,255 @@
+// depowder-monitor: watches a running cell over LCM, shows a live line per part
+// (phase, eta, tracking status, elapsed time) and, when every part is done, prints
+// the run's summary: time, final true eta, pose error, contacts, limit violations,
+// frames dropped, end-to-end latency, and each process's CPU and peak memory.
+// It only listens; SIM_TRUTH is read for the report, never fed back to the cell.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/node/shutdown.hpp"
+#include "depowder/nozzle_plan_t.hpp"
+#include "depowder/part_pose_t.hpp"
+#include "depowder/point_cloud_t.hpp"
+#include "depowder/progress_t.hpp"
+#include "depowder/robot_state_t.hpp"
+#include "depowder/sim_truth_t.hpp"
+
+using namespace depowder;
+
+namespace {
+
+struct PartView {
+  part_pose_t pose{};
+  progress_t progress{};
+  part_truth_t truth{};
+  bool has_pose = false, has_progress = false, has_truth = false;
+  std::int64_t poses = 0;
+  std::int64_t done_since = 0;  // utime the part was first seen DONE
+};
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+const char* phaseName(int phase) {
+  switch (phase) {
+    case progress_t::PHASE_VACUUM_BURIED:
+      return "1 vacuum (initial pose)";
+    case progress_t::PHASE_VACUUM_TRACKED:
+      return "2 vacuum (tracked)";
+    case progress_t::PHASE_AIR_BLAST:
+      return "3 air blast";
+    case progress_t::PHASE_DONE:
+      return "done";
+    default:
+      return "-";
+  }
+}
+
+const char* trackName(int s) {
+  static const char* names[] = {"waiting", "tracking", "degraded", "lost"};
+  return s >= 0 && s <= 3 ? names[s] : "?";
+}
+
+int usage(const std::string& error = "") {
+  if (!error.empty()) std::cerr << "depowder-monitor: " << error << "\n";
+  std::cerr << "usage: depowder-monitor [--parts N] [--timeout S] [--summary FILE.json] [--url URL] [--prefix P]\n"
+               "  Exits 0 when every part is done (held 1 s) with no nozzle-part contact; 1 on timeout or\n"
+               "  contact; --parts N waits until N parts have been heard of (default 1).\n";
+  return error.empty() ? 0 : 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string url, prefix, summary_file;
+  double timeout_s = 600;
+  std::size_t expected_parts = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") return usage();
+    if (i + 1 >= argc) return usage("missing value after " + a);
+    if (a == "--timeout")
+      timeout_s = std::atof(argv[++i]);
+    else if (a == "--parts")
+      expected_parts = static_cast<std::size_t>(std::max(1, std::atoi(argv[++i])));
+    else if (a == "--summary")
+      summary_file = argv[++i];
+    else if (a == "--url")
+      url = argv[++i];
+    else if (a == "--prefix")
+      prefix = argv[++i];
+    else
+      return usage("unknown option " + a);
+  }
+
+  try {
+    node::installShutdownHandlers();
+    node::Bus bus(url, prefix);
+    std::map<std::string, PartView> parts;
+    std::map<std::string, heartbeat_t> processes;  // latest heartbeat by process name
+    robot_state_t robot{};
+    sim_truth_t truth{};
+    bool has_truth = false;
+    std::vector<double> plan_latency_ms, pose_latency_ms;
+    std::int64_t points_seen = 0, points_lost = 0, last_seq = -1, plans = 0;
+    std::set<std::int64_t> points_utimes;  // POINTS frames, to find PART_POSE frames that never came
+    std::map<std::string, std::set<std::int64_t>> pose_utimes;
+
+    bus.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& m, const std::string&) {
+      ++points_seen;
+      if (last_seq >= 0 && m.seq > last_seq + 1) points_lost += m.seq - last_seq - 1;
+      last_seq = m.seq;
+      points_utimes.insert(m.utime);
+    });
+    bus.subscribe<part_pose_t>("PART_POSE", [&](const part_pose_t& m, const std::string&) {
+      PartView& p = parts[m.part];
+      p.pose = m;
+      p.has_pose = true;
+      ++p.poses;
+      pose_utimes[m.part].insert(m.utime);
+      pose_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
+    });
+    bus.subscribe<progress_t>("PROGRESS", [&](const progress_t& m, const std::string&) {
+      PartView& p = parts[m.part];
+      p.progress = m;
+      p.has_progress = true;
+      if (m.phase == progress_t::PHASE_DONE && p.done_since == 0) p.done_since = node::nowUtime();
+      if (m.phase != progress_t::PHASE_DONE) p.done_since = 0;
+    });
+    bus.subscribe<sim_truth_t>("SIM_TRUTH", [&](const sim_truth_t& m, const std::string&) {
+      truth = m;
+      has_truth = true;
+      for (const auto& t : m.parts) {
+        parts[t.part].truth = t;
+        parts[t.part].has_truth = true;
+      }
+    });
+    bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) {
+      ++plans;
+      if (m.utime > 0) plan_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
+    });
+    bus.subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t& m, const std::string&) { robot = m; });
+    bus.subscribe<heartbeat_t>("HEARTBEAT",
+                               [&](const heartbeat_t& m, const std::string&) { processes[m.process] = m; });
+
+    const bool tty = isatty(STDOUT_FILENO);
+    const auto start = std::chrono::steady_clock::now();
+    auto last_line = start;
+    bool done = false, timed_out = false;
+    double elapsed = 0;
+    while (!node::shutdownRequested()) {
+      bus.spinOnce(20);
+      const auto now = std::chrono::steady_clock::now();
+      elapsed = std::chrono::duration<double>(now - start).count();
+      std::size_t n_done = 0;
+      for (const auto& [name, p] : parts)
+        if (p.done_since > 0 && node::nowUtime() - p.done_since > 1000000) ++n_done;
+      if (parts.size() >= expected_parts && n_done == parts.size()) {
+        done = true;
+        break;
+      }
+      if (elapsed > timeout_s) {
+        timed_out = true;
+        break;
+      }
+      if (now - last_line >= std::chrono::milliseconds(tty ? 250 : 5000)) {
+        last_line = now;
+        std::string line;
+        char buf[256];
+        std::snprintf(buf, sizeof(buf), "[%6.1f s]", elapsed);
+        line = buf;
+        for (const auto& [name, p] : parts) {
+          std::snprintf(buf, sizeof(buf), " %s: phase %s, eta %3.0f%% (true %3.0f%%), %s |", name.c_str(),
+                        p.has_progress ? phaseName(p.progress.phase) : "-", p.has_progress ? 100 * p.progress.eta : NAN,
+                        p.has_truth ? 100 * p.truth.eta : NAN, p.has_pose ? trackName(p.pose.status) : "no pose");
+          line += buf;
+        }
+        std::snprintf(buf, sizeof(buf), " plans %lld, contacts %d", static_cast<long long>(plans),
+                      has_truth ? truth.contact_count : 0);
+        line += buf;
+        std::cout << (tty ? "\r\033[K" : "") << line << (tty ? "" : "\n") << std::flush;
+      }
+    }
+    if (tty) std::cout << "\n";
+
+    // Frames the tracker never answered (the last second's may still be in flight).
+    std::int64_t poses_missing = 0;
+    const std::int64_t settle = points_utimes.empty() ? 0 : *points_utimes.rbegin() - 1000000;
+    for (const auto& [name, got] : pose_utimes)
+      for (const std::int64_t u : points_utimes)
+        if (u < settle && u >= *got.begin() && !got.count(u)) ++poses_missing;
+
+    std::ostringstream json;
+    json << "{\n  \"done\": " << (done ? "true" : "false") << ",\n  \"elapsed_s\": " << elapsed << ",\n  \"parts\": [";
+    std::printf("\n=== depowder run summary ===\n%s after %.1f s\n",
+                done        ? "All parts done"
+                : timed_out ? "TIMED OUT"
+                            : "Interrupted",
+                elapsed);
+    bool first = true;
+    for (const auto& [name, p] : parts) {
+      double rot = NAN, trans = NAN;
+      if (p.has_pose && p.has_truth) {
+        const auto est = node::fromMsg(p.pose.T_cell_part), tru = node::fromMsg(p.truth.T_cell_part);
+        if (est && tru) {
+          rot = rotationAngle(est->linear(), tru->linear()) * 180 / M_PI;
+          trans = translationDistance(*est, *tru) * 100;
+        }
+      }
+      std::printf("  %-10s phase %-24s eta %5.1f%%  true eta %5.1f%%  pose error %.2f deg %.2f cm  (%s)\n",
+                  name.c_str(), phaseName(p.progress.phase), 100 * p.progress.eta, 100 * p.truth.eta, rot, trans,
+                  trackName(p.pose.status));
+      json << (first ? "\n" : ",\n") << "    {\"part\": \"" << name << "\", \"phase\": " << int(p.progress.phase)
+           << ", \"eta\": " << p.progress.eta << ", \"true_eta\": " << p.truth.eta << ", \"rot_err_deg\": " << rot
+           << ", \"trans_err_cm\": " << trans << "}";
+      first = false;
+    }
+    std::int64_t limit_violations = 0;
+    for (const auto& [name, h] : processes)
+      for (int k = 0; k < h.num_stats; ++k)
+        if (h.stat_names[k] == "limit_violations") limit_violations += static_cast<std::int64_t>(h.stat_values[k]);
+    const int contacts = has_truth ? truth.contact_count : -1;
+    std::printf("  nozzle-part contacts: %d   limit violations: %lld\n", contacts,
+                static_cast<long long>(limit_violations));
+    std::printf("  POINTS seen %lld, lost %lld; PART_POSE frames missing %lld\n", static_cast<long long>(points_seen),
+                static_cast<long long>(points_lost), static_cast<long long>(poses_missing));
+    std::printf(
+        "  latency depth->PART_POSE p50 %.1f p99 %.1f ms; depth->NOZZLE_PLAN p50 %.1f p99 %.1f ms (%zu plans)\n",
+        percentile(pose_latency_ms, 0.5), percentile(pose_latency_ms, 0.99), percentile(plan_latency_ms, 0.5),
+        percentile(plan_latency_ms, 0.99), plan_latency_ms.size());
+    std::printf("  %-22s %6s %9s %8s %7s\n", "process", "cpu%", "peak_MB", "dropped", "decode");
+    json << "\n  ],\n  \"contacts\": " << contacts << ",\n  \"limit_violations\": " << limit_violations
+         << ",\n  \"points_lost\": " << points_lost << ",\n  \"part_pose_missing\": " << poses_missing
+         << ",\n  \"plan_latency_ms_p99\": " << percentile(plan_latency_ms, 0.99) << ",\n  \"processes\": {";
+    first = true;
+    for (const auto& [name, h] : processes) {
+      std::printf("  %-22s %6.1f %9.1f %8lld %7lld\n", name.c_str(), h.cpu_percent, h.peak_rss_kb / 1024.0,
+                  static_cast<long long>(h.dropped), static_cast<long long>(h.decode_errors));
+      json << (first ? "\n" : ",\n") << "    \"" << name << "\": {\"cpu_percent\": " << h.cpu_percent
+           << ", \"peak_rss_mb\": " << h.peak_rss_kb / 1024.0 << ", \"dropped\": " << h.dropped << "}";
+      first = false;
+    }
+    json << "\n  }\n}\n";
+    if (!summary_file.empty()) std::ofstream(summary_file) << json.str();
+    std::fflush(stdout);
+    return done && contacts <= 0 ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::cerr << "depowder-monitor: " << e.what() << "\n";
+    return 2;
+  }
+}
