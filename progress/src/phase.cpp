@@ -1,0 +1,119 @@
+#include "depowder/progress/phase.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace depowder::progress {
+
+const char* toString(EtaFilterMode m) {
+  switch (m) {
+    case EtaFilterMode::kMedian:
+      return "median";
+    case EtaFilterMode::kRunningMax:
+      return "running_max";
+    case EtaFilterMode::kRunningMaxReset:
+      return "running_max_reset";
+    case EtaFilterMode::kNone:
+      return "none";
+  }
+  return "unknown";
+}
+
+bool parseEtaFilterMode(const std::string& name, EtaFilterMode& mode) {
+  for (EtaFilterMode m :
+       {EtaFilterMode::kMedian, EtaFilterMode::kRunningMax, EtaFilterMode::kRunningMaxReset, EtaFilterMode::kNone})
+    if (name == toString(m)) {
+      mode = m;
+      return true;
+    }
+  return false;
+}
+
+void EtaFilter::reset() {
+  window_.clear();
+  has_value_ = false;
+  value_ = 0;
+}
+
+double EtaFilter::update(double eta_raw, const Pose& T_cell_part) {
+  if (!std::isfinite(eta_raw) || !T_cell_part.matrix().allFinite()) return value_;
+  // A pose jump (the part was pushed or fell over) changes H_max / H_min: the old values
+  // describe another geometry, so start again (Eq. 2 is "always estimated based on the current pose").
+  if (has_value_ &&
+      (rotationAngle(reference_.rotation(), T_cell_part.rotation()) * 180 / M_PI > config_.reset_rotation_deg ||
+       translationDistance(reference_, T_cell_part) > config_.reset_translation)) {
+    if (config_.mode != EtaFilterMode::kRunningMax) {
+      window_.clear();
+      has_value_ = false;
+      ++resets_;
+    }
+    reference_ = T_cell_part;
+  }
+  if (!has_value_) reference_ = T_cell_part;
+
+  switch (config_.mode) {
+    case EtaFilterMode::kMedian: {
+      window_.push_back(eta_raw);
+      while (static_cast<int>(window_.size()) > std::max(1, config_.window)) window_.pop_front();
+      std::vector<double> v(window_.begin(), window_.end());
+      std::sort(v.begin(), v.end());
+      const std::size_t n = v.size();
+      value_ = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+      break;
+    }
+    case EtaFilterMode::kRunningMax:
+    case EtaFilterMode::kRunningMaxReset:
+      value_ = has_value_ ? std::max(value_, eta_raw) : eta_raw;
+      break;
+    case EtaFilterMode::kNone:
+      value_ = eta_raw;
+      break;
+  }
+  has_value_ = true;
+  return value_;
+}
+
+const char* toString(Phase p) {
+  switch (p) {
+    case Phase::kVacuumBuried:
+      return "vacuum_buried";
+    case Phase::kVacuumTracked:
+      return "vacuum_tracked";
+    case Phase::kAirBlast:
+      return "air_blast";
+    case Phase::kDone:
+      return "done";
+  }
+  return "unknown";
+}
+
+void PhaseMachine::airBlastStarted(std::int64_t utime) {
+  if (phase_ == Phase::kAirBlast && blast_utime_ < 0) blast_utime_ = utime;
+}
+
+Phase PhaseMachine::update(double eta, std::int64_t utime) {
+  if (!std::isfinite(eta) || phase_ == Phase::kDone) return phase_;
+  // Sec. III-B: phase 1 while eta <= eta1, phase 2 while eta <= eta2, phase 3 above.
+  if (phase_ == Phase::kAirBlast && eta < config_.eta2 - config_.hysteresis) {
+    phase_ = Phase::kVacuumTracked;  // powder came back: vacuum again, and a new blast later
+    blast_utime_ = -1;
+    frames_at_target_ = 0;
+  }
+  if (phase_ == Phase::kVacuumBuried && eta > config_.eta1) phase_ = Phase::kVacuumTracked;
+  if (phase_ == Phase::kVacuumTracked && eta > config_.eta2) {
+    phase_ = Phase::kAirBlast;
+    blast_utime_ = config_.require_blast ? -1 : utime;
+    frames_at_target_ = 0;
+    return phase_;  // the blast has not run yet
+  }
+  if (phase_ != Phase::kAirBlast) return phase_;
+
+  // Done once the blast pass has run long enough and then confirms eta at the target.
+  const bool blasted = blast_utime_ >= 0 && (utime - blast_utime_) * 1e-6 >= config_.blast_min_s;
+  frames_at_target_ = blasted && eta >= config_.done_eta ? frames_at_target_ + 1 : 0;
+  if (frames_at_target_ >= config_.done_frames) phase_ = Phase::kDone;
+  return phase_;
+}
+
+}  // namespace depowder::progress
