@@ -1,0 +1,96 @@
+// Collision checking of the nozzle (and, with an arm model, the VS-6577 links) against
+// the parts at their estimated poses, the build box and the powder. FCL lives behind
+// the pimpl: part meshes are BVHModel<OBBRSS>, walls and floor are boxes, the nozzle is
+// a cylinder. A margin is added by inflating the moving shapes (a cylinder or box grown
+// by m contains every point within m of the original), so each check is a boolean
+// collide, not a distance query.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "depowder/geometry.hpp"
+#include "depowder/mesh.hpp"
+#include "depowder/planner/config.hpp"
+
+namespace depowder::planner {
+
+/// One part's mesh with its bounding-volume hierarchy, built once (a few ms) and shared.
+class PartShape {
+ public:
+  PartShape(std::string name, Mesh mesh);
+  ~PartShape();
+
+  const std::string& name() const { return name_; }
+  const Mesh& mesh() const { return mesh_; }
+  /// Surface samples (part frame, about 3 mm apart), for footprints and height maps.
+  const Cloud& samples() const { return samples_; }
+
+  /// Shortest distance from a vertical nozzle axis (the segment from `tip` up to
+  /// tip + length z) to the part at T_cell_part: the vacuum path's stand-off.
+  struct AxisDistance {
+    double distance = 0;  ///< m (<= 0: the axis touches the part)
+    Point on_part;        ///< nearest point on the part surface (cell frame)
+    Point on_axis;        ///< nearest point on the axis segment (cell frame)
+  };
+  AxisDistance axisDistance(const Pose& T_cell_part, const Point& tip, double length) const;
+
+  struct Impl;
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::string name_;
+  Mesh mesh_;
+  Cloud samples_;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// How a part takes part in collision checks.
+enum class PartState {
+  kTracked,  ///< at its estimated pose, inflated by tracking_margin
+  kLost,     ///< at its last pose, inflated by lost_margin
+  kIgnored,  ///< not an obstacle (not in the cell)
+};
+
+/// What a check hit, if anything.
+struct Contact {
+  bool collision = false;
+  std::string what;  ///< e.g. "nozzle-part:cube", "link3-wall:+x"; "" when free
+  explicit operator bool() const { return collision; }
+};
+
+class CollisionWorld {
+ public:
+  CollisionWorld(std::vector<std::shared_ptr<const PartShape>> parts, const Box& box, const NozzleConfig& nozzle,
+                 const CollisionConfig& config);
+  ~CollisionWorld();
+  CollisionWorld(const CollisionWorld&) = delete;
+  CollisionWorld& operator=(const CollisionWorld&) = delete;
+
+  std::size_t numParts() const;
+  const PartShape& part(std::size_t i) const;
+  void setPart(std::size_t i, const Pose& T_cell_part, PartState state);
+  const Pose& partPose(std::size_t i) const;
+  PartState partState(std::size_t i) const;
+
+  /// The powder as an obstacle for transitions: the box interior from the floor up to
+  /// `top` (m, cell z); a value <= 0 removes it. Waypoint checks of vacuum paths run
+  /// inside the powder and pass include_powder = false.
+  void setPowderTop(double top);
+  double powderTop() const;
+
+  /// The nozzle alone at T_cell_nozzle.
+  Contact checkNozzle(const Pose& T_cell_nozzle, bool include_powder = false) const;
+
+  const Box& box() const;
+  const NozzleConfig& nozzle() const;
+  const CollisionConfig& config() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace depowder::planner

@@ -1,0 +1,186 @@
+#include "depowder/planner/collision.hpp"
+
+#include <array>
+#include <stdexcept>
+
+#include "fcl_util.hpp"
+
+namespace depowder::planner {
+
+std::shared_ptr<FclMesh> makeBvh(const Mesh& mesh) {
+  std::vector<fcl::Vector3d> vertices(mesh.vertices.begin(), mesh.vertices.end());
+  std::vector<fcl::Triangle> triangles;
+  triangles.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) triangles.emplace_back(t[0], t[1], t[2]);
+  auto bvh = std::make_shared<FclMesh>();
+  bvh->beginModel(static_cast<int>(triangles.size()), static_cast<int>(vertices.size()));
+  bvh->addSubModel(vertices, triangles);
+  bvh->endModel();
+  bvh->computeLocalAABB();
+  return bvh;
+}
+
+// ---------------------------------------------------------------------------------------------
+// PartShape
+
+PartShape::PartShape(std::string name, Mesh mesh)
+    : name_(std::move(name)), mesh_(std::move(mesh)), impl_(std::make_unique<Impl>()) {
+  if (mesh_.triangles.empty()) throw std::invalid_argument("part '" + name_ + "' has no triangles");
+  impl_->bvh = makeBvh(mesh_);
+  samples_ = sampleSurface(mesh_, 0.003, 7).points;
+}
+
+PartShape::~PartShape() = default;
+
+PartShape::AxisDistance PartShape::axisDistance(const Pose& T_cell_part, const Point& tip, double length) const {
+  // The axis as a capsule of negligible radius: FCL's GJK then gives the segment distance.
+  constexpr double kRadius = 1e-5;
+  auto axis = std::make_shared<fcl::Capsuled>(kRadius, length);
+  Pose T_cell_axis = Pose::Identity();
+  T_cell_axis.translation() = tip + Point(0, 0, 0.5 * length);
+  const FclObject a(axis, T_cell_axis);
+  const FclObject b(impl_->bvh, T_cell_part);
+  fcl::DistanceRequestd request(true);
+  fcl::DistanceResultd result;
+  fcl::distance(&a, &b, request, result);
+  AxisDistance d;
+  d.distance = result.min_distance + kRadius;
+  d.on_axis = result.nearest_points[0];
+  d.on_part = result.nearest_points[1];
+  if (d.distance > 0) {
+    // Put the axis point on the axis itself (FCL returns it on the capsule surface).
+    const double z = std::clamp(d.on_axis.z(), tip.z(), tip.z() + length);
+    d.on_axis = Point(tip.x(), tip.y(), z);
+  }
+  return d;
+}
+
+// ---------------------------------------------------------------------------------------------
+// CollisionWorld
+
+namespace {
+
+/// Nozzle body grown by m: a cylinder of radius r + m from m below the tip to m above the top.
+std::shared_ptr<FclGeometry> nozzleShape(const NozzleConfig& nozzle, double m) {
+  return std::make_shared<fcl::Cylinderd>(nozzle.radius + m, nozzle.length + 2 * m);
+}
+
+/// Pose of that cylinder (centred on its axis) for the nozzle at T_cell_nozzle; +z of the
+/// nozzle points away from the body, so the body's centre is at -length/2.
+Pose nozzleShapePose(const Pose& T_cell_nozzle, const NozzleConfig& nozzle) {
+  Pose T_nozzle_shape = Pose::Identity();
+  T_nozzle_shape.translation() = Point(0, 0, -0.5 * nozzle.length);
+  return T_cell_nozzle * T_nozzle_shape;
+}
+
+struct Static {
+  std::string name;
+  FclObject object;
+};
+
+}  // namespace
+
+struct CollisionWorld::Impl {
+  std::vector<std::shared_ptr<const PartShape>> parts;
+  std::vector<FclObject> part_objects;
+  std::vector<Pose> poses;
+  std::vector<PartState> states;
+  Box box;
+  NozzleConfig nozzle;
+  CollisionConfig config;
+  std::vector<Static> statics;  // walls and floor
+  std::unique_ptr<FclObject> powder;
+  double powder_top = 0;
+  // The nozzle grown for static obstacles, tracked parts and lost parts.
+  std::shared_ptr<FclGeometry> nozzle_static, nozzle_tracked, nozzle_lost;
+
+  Contact nozzleContact(const Pose& T_cell_nozzle, bool include_powder) const {
+    const Pose T = nozzleShapePose(T_cell_nozzle, nozzle);
+    const FclObject fixed = makeObject(nozzle_static, T);
+    for (const Static& s : statics)
+      if (collide(fixed, s.object)) return {true, "nozzle-" + s.name};
+    if (include_powder && powder && collide(fixed, *powder)) return {true, "nozzle-powder"};
+    const FclObject tracked = makeObject(nozzle_tracked, T);
+    const FclObject lost = makeObject(nozzle_lost, T);
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      if (states[i] == PartState::kIgnored) continue;
+      const FclObject& n = states[i] == PartState::kLost ? lost : tracked;
+      if (collide(n, part_objects[i])) return {true, "nozzle-part:" + parts[i]->name()};
+    }
+    return {};
+  }
+};
+
+CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> parts, const Box& box,
+                               const NozzleConfig& nozzle, const CollisionConfig& config)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& w = *impl_;
+  w.parts = std::move(parts);
+  w.box = box;
+  w.nozzle = nozzle;
+  w.config = config;
+  for (const auto& p : w.parts) {
+    if (!p) throw std::invalid_argument("CollisionWorld: null part");
+    w.part_objects.push_back(makeObject(p->impl().bvh));
+    w.poses.push_back(Pose::Identity());
+    w.states.push_back(PartState::kIgnored);
+  }
+  // Walls from below the floor to the box's rim, and the floor, each `wall` thick.
+  const Eigen::Vector3d s = box.size;
+  const double t = box.wall;
+  const double h = s.z() + t;
+  const double zc = 0.5 * s.z() - 0.5 * t;
+  auto add = [&](const std::string& name, const Eigen::Vector3d& size, const Eigen::Vector3d& centre) {
+    Pose T = Pose::Identity();
+    T.translation() = centre;
+    w.statics.push_back({name, makeObject(std::make_shared<fcl::Boxd>(size), T)});
+  };
+  add("wall:+x", {t, s.y() + 2 * t, h}, {0.5 * (s.x() + t), 0, zc});
+  add("wall:-x", {t, s.y() + 2 * t, h}, {-0.5 * (s.x() + t), 0, zc});
+  add("wall:+y", {s.x() + 2 * t, t, h}, {0, 0.5 * (s.y() + t), zc});
+  add("wall:-y", {s.x() + 2 * t, t, h}, {0, -0.5 * (s.y() + t), zc});
+  add("floor", {s.x() + 2 * t, s.y() + 2 * t, t}, {0, 0, -0.5 * t});
+  w.nozzle_static = nozzleShape(nozzle, nozzle.margin);
+  w.nozzle_tracked = nozzleShape(nozzle, nozzle.margin + config.tracking_margin);
+  w.nozzle_lost = nozzleShape(nozzle, nozzle.margin + config.lost_margin);
+}
+
+CollisionWorld::~CollisionWorld() = default;
+
+std::size_t CollisionWorld::numParts() const { return impl_->parts.size(); }
+const PartShape& CollisionWorld::part(std::size_t i) const { return *impl_->parts.at(i); }
+
+void CollisionWorld::setPart(std::size_t i, const Pose& T_cell_part, PartState state) {
+  Impl& w = *impl_;
+  w.poses.at(i) = T_cell_part;
+  w.states.at(i) = state;
+  place(w.part_objects.at(i), T_cell_part);
+}
+
+const Pose& CollisionWorld::partPose(std::size_t i) const { return impl_->poses.at(i); }
+PartState CollisionWorld::partState(std::size_t i) const { return impl_->states.at(i); }
+
+void CollisionWorld::setPowderTop(double top) {
+  Impl& w = *impl_;
+  w.powder_top = top > 0 ? top : 0;
+  if (top <= 0) {
+    w.powder.reset();
+    return;
+  }
+  Pose T = Pose::Identity();
+  T.translation() = Point(0, 0, 0.5 * top);
+  w.powder =
+      std::make_unique<FclObject>(makeObject(std::make_shared<fcl::Boxd>(w.box.size.x(), w.box.size.y(), top), T));
+}
+
+double CollisionWorld::powderTop() const { return impl_->powder_top; }
+
+Contact CollisionWorld::checkNozzle(const Pose& T_cell_nozzle, bool include_powder) const {
+  return impl_->nozzleContact(T_cell_nozzle, include_powder);
+}
+
+const Box& CollisionWorld::box() const { return impl_->box; }
+const NozzleConfig& CollisionWorld::nozzle() const { return impl_->nozzle; }
+const CollisionConfig& CollisionWorld::config() const { return impl_->config; }
+
+}  // namespace depowder::planner
