@@ -1,0 +1,123 @@
+// depowder-progress: POINTS + PART_POSE (+ NOZZLE_PLAN for the air-blast pass) -> PROGRESS per part
+// (paper Sec. IV-C), with a heartbeat. The logic is in progress_node.hpp; this file is the bus.
+#include <iostream>
+#include <map>
+
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/node/heartbeat.hpp"
+#include "depowder/node/shutdown.hpp"
+#include "depowder/point_cloud_t.hpp"
+#include "progress_node.hpp"
+
+using namespace depowder;
+
+namespace {
+
+int usage(const std::string& error = "") {
+  if (!error.empty()) std::cerr << "depowder-progress: " << error << "\n";
+  std::cerr << "usage: depowder-progress [--cell FILE] [--url URL] [--prefix P]\n"
+               "  Subscribes POINTS, PART_POSE and NOZZLE_PLAN; publishes PROGRESS (progress_t) for every part\n"
+               "  of the cell with each POINTS frame's utime, and HEARTBEAT.\n"
+               "  --cell FILE   cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); section `progress`\n"
+               "  --url URL     LCM URL (overrides lcm.url)\n"
+               "  --prefix P    channel prefix (overrides lcm.prefix)\n";
+  return error.empty() ? 0 : 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string cell_path = node::defaultCellPath(), url, prefix;
+  bool have_url = false, have_prefix = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") return usage();
+    if (a != "--cell" && a != "--url" && a != "--prefix") return usage("unknown option " + a);
+    if (i + 1 >= argc) return usage("missing value after " + a);
+    const std::string v = argv[++i];
+    if (a == "--cell") cell_path = v;
+    if (a == "--url") url = v, have_url = true;
+    if (a == "--prefix") prefix = v, have_prefix = true;
+  }
+
+  try {
+    // 1. Configuration and the parts' CAD samples.
+    const node::CellConfig cell = node::loadCell(cell_path);
+    const progress::ProgressNodeOptions options = progress::readProgressOptions(cell);
+    progress::ProgressNode logic(cell, options);
+
+    // 2. Bus, heartbeat, subscriptions. Handlers only queue work; the loop publishes.
+    node::installShutdownHandlers();
+    node::Bus bus(have_url ? url : cell.lcm.url, have_prefix ? prefix : cell.lcm.prefix);
+    node::Heartbeat heartbeat(bus, "depowder-progress", options.heartbeat_period);
+    std::vector<progress_t> out;
+    auto append = [&out](std::vector<progress_t> more) {
+      for (auto& m : more) out.push_back(std::move(m));
+    };
+    std::string input_problem;
+    bus.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& msg, const std::string&) {
+      std::string why;
+      std::optional<Cloud> cloud = node::decodeCloud(msg, &why);
+      if (!cloud) {
+        heartbeat.addDropped();
+        input_problem = "bad POINTS frame: " + why;
+        return;
+      }
+      append(logic.onPoints(msg.utime, std::move(*cloud), node::nowUtime()));
+    });
+    bus.subscribe<part_pose_t>("PART_POSE",
+                               [&](const part_pose_t& msg, const std::string&) { append(logic.onPose(msg)); });
+    bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN",
+                                 [&](const nozzle_plan_t& msg, const std::string&) { logic.onPlan(msg); });
+    heartbeat.setState(heartbeat_t::RUNNING);
+    heartbeat.publish();
+    std::cout << "depowder-progress: " << logic.partNames().size() << " parts, cell " << cell.file << std::endl;
+
+    // 3. Main loop: handle messages, release frames that waited for their poses, publish.
+    std::map<std::string, std::string> problems;  // per part, from its last message
+    while (!node::shutdownRequested()) {
+      try {
+        bus.spinOnce(10);
+      } catch (const node::BusError&) {
+        if (node::shutdownRequested()) break;  // the signal interrupted LCM's wait: not an error
+        throw;
+      }
+      append(logic.poll(node::nowUtime()));
+      for (const progress_t& m : out) {
+        bus.publish("PROGRESS", m);
+        if (m.status == progress_t::OK)
+          problems.erase(m.part);
+        else
+          problems[m.part] = m.status_reason;
+        heartbeat.setStat("eta_" + m.part, m.eta);
+        heartbeat.setStat("phase_" + m.part, m.phase);
+      }
+      out.clear();
+      for (const std::string& e : bus.takeErrors()) std::cerr << "depowder-progress: " << e << std::endl;
+
+      const auto& s = logic.stats();
+      heartbeat.setStat("frames_in", static_cast<double>(s.frames));
+      heartbeat.setStat("estimates", static_cast<double>(s.estimates));
+      heartbeat.setStat("no_pose", static_cast<double>(s.no_pose));
+      heartbeat.setStat("invalid_poses", static_cast<double>(s.invalid_poses));
+      heartbeat.setStat("compute_ms", s.last_compute_ms);
+      if (!problems.empty())
+        heartbeat.setState(heartbeat_t::DEGRADED, problems.begin()->first + ": " + problems.begin()->second);
+      else if (!input_problem.empty())
+        heartbeat.setState(heartbeat_t::DEGRADED, input_problem);
+      else
+        heartbeat.setState(heartbeat_t::RUNNING);
+      input_problem.clear();
+      heartbeat.tick();
+    }
+    heartbeat.setState(heartbeat_t::STOPPING);
+    heartbeat.publish();
+  } catch (const std::exception& e) {
+    std::cerr << "depowder-progress: " << e.what() << std::endl;
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,169 @@
+// depowder-progress's logic without a network: YAML options, POINTS / PART_POSE pairing,
+// stale and invalid poses, the initial pose in phase 1, and the air-blast pass to DONE.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
+#include "progress_node.hpp"
+#include "scenes.hpp"
+
+namespace depowder::progress {
+namespace {
+
+// The committed 6 cm cube, centred at (0, 0, 0.05): bottom 2 cm, top 8 cm.
+std::string cellYaml(const std::string& progress_section = "{}") {
+  return std::string("parts:\n  - name: cube\n    mesh: ") + DEPOWDER_SOURCE_DIR +
+         "/config/parts/cube.stl\n    xi: 0.01\n    initial_pose: {xyz: [0, 0, 0.05], rpy_deg: [0, 0, 0]}\n" +
+         "progress: " + progress_section + "\n";
+}
+
+Cloud cubeScene(double h, double dx = 0) {
+  Cloud scan = test::powderPlane(h, 0.15, 0.0025,
+                                 [dx](double x, double y) { return std::abs(x - dx) <= 0.03 && std::abs(y) <= 0.03; });
+  for (const Point& p : test::boxSurface({dx - 0.03, -0.03, 0.02}, {dx + 0.03, 0.03, 0.08}, 0.003))
+    if (p.z() >= h) scan.push_back(p);
+  return scan;
+}
+
+part_pose_t poseMsg(std::int64_t utime, const Pose& pose, const std::string& part = "cube") {
+  part_pose_t m;
+  m.utime = utime;
+  m.part = part;
+  m.T_cell_part = node::toMsg(pose);
+  m.template_size = 0;
+  return m;
+}
+
+const Pose kInit = makePoseRpy({0, 0, 0.05}, 0, 0, 0);
+
+TEST(Options, DefaultsRangesAndUnknownKeys) {
+  const ProgressNodeOptions d = readProgressOptions(node::loadCellFromString(cellYaml()));
+  EXPECT_DOUBLE_EQ(d.estimator.eta1, 0.30);
+  EXPECT_EQ(d.filter.mode, EtaFilterMode::kMedian);
+  const ProgressNodeOptions o =
+      readProgressOptions(node::loadCellFromString(cellYaml("{eta_filter: running_max, band_width: 0.01}")));
+  EXPECT_EQ(o.filter.mode, EtaFilterMode::kRunningMax);
+  EXPECT_DOUBLE_EQ(o.estimator.band_width, 0.01);
+  auto error = [](const std::string& section) {
+    try {
+      readProgressOptions(node::loadCellFromString(cellYaml(section)));
+    } catch (const node::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error("{band_width: 2}").find("band_width"), std::string::npos);
+  EXPECT_NE(error("{eta1: 0.9, eta2: 0.5}").find("eta2"), std::string::npos);
+  EXPECT_NE(error("{bandwidth: 0.01}").find("bandwidth"), std::string::npos);
+  EXPECT_NE(error("{eta_filter: mean}").find("eta_filter"), std::string::npos);
+}
+
+class NodeTest : public ::testing::Test {
+ protected:
+  NodeTest() : cell_(node::loadCellFromString(cellYaml())), options_(readProgressOptions(cell_)) {}
+  node::CellConfig cell_;
+  ProgressNodeOptions options_;
+};
+
+TEST_F(NodeTest, PairsEachFrameWithThePoseOfTheSameUtime) {
+  ProgressNode n(cell_, options_);
+  EXPECT_TRUE(n.onPoints(1000, cubeScene(0.05), 0).empty());  // waits for its pose
+  const auto out = n.onPose(poseMsg(1000, kInit));
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].utime, 1000);
+  EXPECT_EQ(out[0].part, "cube");
+  EXPECT_EQ(out[0].status, +progress_t::OK) << out[0].status_reason;
+  EXPECT_NEAR(out[0].eta_raw, 0.5, 0.01);  // sampled CAD top within a few mm of the exact 8 cm
+  EXPECT_NEAR(out[0].eta, out[0].eta_raw, 1e-12);
+  EXPECT_EQ(out[0].phase, +progress_t::PHASE_VACUUM_TRACKED);
+  EXPECT_GT(out[0].num_contour, 20);
+  EXPECT_EQ(out[0].num_contour, static_cast<int>(out[0].contour.size()));
+  EXPECT_GT(out[0].num_band, 100);
+  EXPECT_TRUE(n.poll(10'000'000).empty());  // nothing left waiting
+
+  // The pose may also come first.
+  EXPECT_TRUE(n.onPose(poseMsg(2000, kInit)).empty());
+  EXPECT_EQ(n.onPoints(2000, cubeScene(0.05), 0).size(), 1u);
+}
+
+TEST_F(NodeTest, InitialPoseInPhaseOneThenStalePosesGiveNoPose) {
+  ProgressNode n(cell_, options_);
+  n.onPoints(1000, cubeScene(0.075), 0);
+  EXPECT_TRUE(n.poll(100'000).empty());  // still within pose_wait (0.15 s)
+  auto out = n.poll(200'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, +progress_t::OK);
+  EXPECT_NE(out[0].status_reason.find("initial pose"), std::string::npos);
+  EXPECT_NEAR(out[0].eta, (0.08 - 0.075) / 0.06, 0.01);
+
+  // A pose for frame 2000; frame 300000 (0.298 s later) reuses it; frame 900000 is too late.
+  const Pose moved = makePoseRpy({0.01, 0, 0.05}, 0, 0, 0);
+  n.onPose(poseMsg(2000, moved));
+  n.onPoints(300'000, cubeScene(0.05, 0.01), 300'000);
+  out = n.poll(500'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, +progress_t::OK);
+  EXPECT_NE(out[0].status_reason.find("earlier frame"), std::string::npos);
+  EXPECT_NEAR(out[0].T_cell_part.position[0], 0.01, 1e-9);
+  n.onPoints(900'000, cubeScene(0.05, 0.01), 900'000);
+  out = n.poll(1'100'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, +progress_t::NO_POSE);
+  EXPECT_NE(out[0].status_reason.find("pose_staleness"), std::string::npos);
+  EXPECT_EQ(n.stats().no_pose, 1);
+}
+
+TEST_F(NodeTest, BadInputsAreCountedAndReported) {
+  ProgressNode n(cell_, options_);
+  part_pose_t bad = poseMsg(1000, kInit);
+  bad.T_cell_part.orientation[0] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(n.onPose(bad).empty());
+  EXPECT_EQ(n.stats().invalid_poses, 1);
+  EXPECT_TRUE(n.onPose(poseMsg(1000, kInit, "teapot")).empty());
+  EXPECT_EQ(n.stats().unknown_parts, 1);
+
+  n.onPoints(5000, {}, 0);
+  auto out = n.onPose(poseMsg(5000, kInit));
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, +progress_t::NO_POINTS);
+
+  // Powder only far away: no contour, eta held at its previous value.
+  n.onPoints(6000, cubeScene(0.05), 0);
+  const double held = n.onPose(poseMsg(6000, kInit)).at(0).eta;
+  n.onPoints(7000, test::powderPlane(0.03, 0.15, 0.0025, [](double x, double) { return std::abs(x) < 0.1; }), 0);
+  out = n.onPose(poseMsg(7000, kInit));
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, +progress_t::NO_CONTOUR);
+  EXPECT_DOUBLE_EQ(out[0].eta, held);
+  EXPECT_TRUE(std::isnan(out[0].eta_raw));
+}
+
+TEST_F(NodeTest, AirBlastPassLeadsToDone) {
+  options_.phase.blast_min_s = 1.0;
+  options_.phase.done_frames = 3;
+  ProgressNode n(cell_, options_);
+  std::int64_t t = 1000;
+  auto frame = [&](double h) {
+    n.onPoints(t, cubeScene(h), 0);
+    const auto out = n.onPose(poseMsg(t, kInit));
+    t += 100'000;
+    return out.at(0).phase;
+  };
+  EXPECT_EQ(frame(0.025), +progress_t::PHASE_AIR_BLAST);                              // eta 0.92
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(frame(0.02), +progress_t::PHASE_AIR_BLAST);  // no blast yet
+  nozzle_plan_t plan;
+  plan.utime = t;
+  plan.part = "cube";
+  plan.phase = progress_t::PHASE_AIR_BLAST;
+  plan.num_waypoints = 0;
+  n.onPlan(plan);
+  int frames = 0;
+  while (frame(0.02) != progress_t::PHASE_DONE && frames < 100) ++frames;
+  EXPECT_EQ(frames, 10 + 2);  // 1 s of blast at 10 Hz, then 3 frames at the target
+}
+
+}  // namespace
+}  // namespace depowder::progress
