@@ -1,0 +1,156 @@
+// A b-CAP controller emulator: the subset of a DENSO RC8 that depowder-driver uses, served
+// over TCP (REFERENCE.md, "DENSO b-CAP"). The simulator owns one and reads the arm and the
+// tool from it every step; the driver cannot tell it from a real controller.
+//
+// Implemented: ServiceStart/Stop, Controller_Connect/Disconnect/GetRobot/GetVariable/Execute
+// ("ClearError"), Robot_Execute ("Motor", "TakeArm", "GiveArm", "slvChangeMode", "slvMove",
+// "CurJnt", "ExtSpeed", "slvSendFormat"/"slvRecvFormat" defaults only), Robot_Halt,
+// Robot_Release, Variable_GetValue/PutValue/Release. Handles are global; the arm belongs to
+// the connection that took it and is released (stopped) when that connection closes.
+// Slave mode: joint targets (mode 0x?02) in degrees, 6..8 elements, one per 8 ms cycle; in
+// sync mode (0x200) the reply waits for the next cycle and a command later than 16 ms after
+// the previous one is an error that stops the arm. Errors that stop the arm switch the motor
+// off and stay pending until Controller_Execute("ClearError").
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "depowder/robot/bcap/packet.hpp"
+#include "depowder/robot/kinematics.hpp"
+
+namespace depowder::sim {
+
+struct BcapEmulatorConfig {
+  std::string bind_address = "127.0.0.1";               ///< loopback unless configured (IPv4)
+  int port = 5007;                                      ///< 0: any free port (tests; see BcapEmulator::port())
+  robot::Joints q_min = robot::ArmConfig().q_min;       ///< rad, targets outside are refused
+  robot::Joints q_max = robot::ArmConfig().q_max;       ///< rad
+  robot::Joints qd_max = robot::ArmConfig().qd_max;     ///< rad/s, per-cycle step limit (with speed_margin)
+  robot::Joints q_initial = robot::ArmConfig().q_home;  ///< rad, the arm at start
+  double cycle_s = 0.008;                               ///< s, slave-mode control cycle (RC8: 8 ms)
+  double late_limit_s = 0.016;           ///< s, sync mode: a slvMove this long after the previous is an error
+  double speed_margin = 1.5;             ///< a cycle may move a joint by qd_max * cycle_s * speed_margin
+  double motor_on_time_s = 0.05;         ///< s, "Motor 1" answers "still executing" for this long
+  double executing_period_s = 0.02;      ///< s, between "still executing" replies
+  std::string vacuum_variable = "IO24";  ///< controller I/O variable that switches the vacuum
+  std::string air_variable = "IO25";     ///< controller I/O variable that switches the air blast
+  int max_connections = 8;               ///< further connections are closed at once
+};
+
+struct EmulatorJointState {
+  robot::Joints q{};   ///< rad, current joint positions
+  robot::Joints qd{};  ///< rad/s, over the last cycle (0 when no command came for 2 cycles)
+  bool motor_on = false;
+  bool slave_mode = false;
+  std::int64_t slave_moves = 0;  ///< accepted slvMove commands
+};
+
+struct EmulatorToolState {
+  bool vacuum = false;
+  bool air = false;
+};
+
+struct EmulatorStats {
+  std::int64_t connections = 0;    ///< accepted
+  std::int64_t packets = 0;        ///< requests decoded
+  std::int64_t malformed = 0;      ///< requests that did not decode (error reply or closed)
+  std::int64_t error_replies = 0;  ///< failure HRESULTs sent
+  std::int64_t late_errors = 0;    ///< slvMove later than late_limit_s
+  std::int64_t limit_errors = 0;   ///< targets outside the joint limits
+  std::int64_t speed_errors = 0;   ///< targets too far for one cycle
+  std::int64_t halts = 0;          ///< Robot_Halt calls
+  std::string last_error;          ///< description of the last error reply
+};
+
+class BcapEmulator {
+ public:
+  explicit BcapEmulator(BcapEmulatorConfig config = {});
+  ~BcapEmulator();
+  BcapEmulator(const BcapEmulator&) = delete;
+  BcapEmulator& operator=(const BcapEmulator&) = delete;
+
+  /// Binds, listens and starts serving. False with `error` set if the address cannot be bound.
+  bool start(std::string* error = nullptr);
+  /// Closes every connection and joins the threads (also done by the destructor).
+  void stop();
+  /// The bound port (useful with port 0).
+  int port() const { return bound_port_; }
+
+  // Thread-safe accessors for the simulator's main loop (call once a step).
+  EmulatorJointState joints() const;
+  EmulatorToolState tool() const;
+  /// True once the arm was stopped by Robot_Halt or an error, until slave mode is entered again.
+  bool halted() const;
+  /// Steady-clock time of the last halt (Robot_Halt or an error that stopped the arm).
+  std::optional<std::chrono::steady_clock::time_point> lastHaltTime() const;
+  EmulatorStats stats() const;
+
+  /// Puts the arm somewhere (a simulator reset). Refused (false) while in slave mode.
+  bool setJoints(const robot::Joints& q);
+
+  /// Handles one request as the server does (exposed for tests). `connection` identifies the
+  /// caller for arm ownership. May block until the next cycle for a sync-mode slvMove, or for
+  /// motor_on_time_s for "Motor 1", during which `partial` gets the "still executing" replies.
+  using PartialReply = std::function<void(const robot::bcap::Packet&)>;
+  robot::bcap::Packet handle(const robot::bcap::Packet& request, int connection, const PartialReply& partial = {});
+  /// Called when a connection ends: releases its arm (stopping slave mode) and its handles.
+  void connectionClosed(int connection);
+
+ private:
+  struct Handle {
+    enum Kind { Controller, Robot, Variable } kind;
+    int connection;
+    std::string name;
+  };
+  struct Connection;
+
+  void acceptLoop();
+  void serve(std::shared_ptr<Connection> conn);
+  robot::bcap::Packet reply(const robot::bcap::Packet& req, std::uint32_t hresult,
+                            std::vector<robot::bcap::Variant> values = {});
+  robot::bcap::Packet error(const robot::bcap::Packet& req, std::uint32_t hresult, const std::string& why);
+  robot::bcap::Packet robotExecute(const robot::bcap::Packet& req, int connection, const PartialReply& partial);
+  robot::bcap::Packet slvMove(const robot::bcap::Packet& req, int connection, const robot::bcap::Variant& param);
+  /// Stops the arm (caller holds mutex_): leaves slave mode, zero velocity, halted.
+  void stopArmLocked(bool motor_off);
+  std::optional<std::uint32_t> handleArg(const robot::bcap::Packet& req, std::size_t i, Handle::Kind kind) const;
+  std::vector<double> jointsDegreesLocked() const;
+
+  BcapEmulatorConfig config_;
+  int listen_fd_ = -1;
+  int bound_port_ = 0;
+  std::atomic<bool> running_{false};
+  std::thread accept_thread_;
+  std::mutex connections_mutex_;
+  std::vector<std::shared_ptr<Connection>> connections_;
+  int next_connection_ = 1;
+
+  mutable std::mutex mutex_;
+  std::map<std::uint32_t, Handle> handles_;
+  std::uint32_t next_handle_ = 1;
+  robot::Joints q_{};
+  robot::Joints qd_{};
+  bool motor_on_ = false;
+  int arm_owner_ = 0;  ///< connection id, 0 = free
+  int slave_mode_ = 0;
+  bool halted_ = false;
+  bool error_pending_ = false;
+  std::optional<std::chrono::steady_clock::time_point> halt_time_;
+  std::int64_t last_move_ns_ = 0;  ///< CLOCK_MONOTONIC of the last applied slvMove (its cycle)
+  std::int64_t cycle_origin_ns_ = 0;
+  std::int64_t slave_moves_ = 0;
+  std::map<std::string, bool> io_;
+  EmulatorStats stats_;
+};
+
+}  // namespace depowder::sim
