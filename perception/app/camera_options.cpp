@@ -1,0 +1,126 @@
+#include "camera_options.hpp"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace depowder::perception {
+
+namespace {
+
+void readSection(const node::YamlReader& r, CameraNodeOptions& o) {
+  PerceptionConfig& p = o.perception;
+  r.read("input", o.input);
+  r.read("output", o.output);
+  r.read("heartbeat_period", o.heartbeat_period, 0.05, 10.0);
+  r.read("crop_margin", p.crop_margin, 0.0, 0.5);
+  r.read("voxel_leaf", p.voxel_leaf, 0.001, 0.05);
+  r.read("outlier_min_neighbours", p.outlier_min_neighbours, 0, 26);
+  r.read("resolution", p.resolution, 0.0001, 0.01);
+  r.read("match_tolerance", p.merger.match_tolerance, 0.0, 1.0);
+  r.read("max_wait", p.merger.max_wait, 0.0, 5.0);
+  r.read("silent_after", p.merger.silent_after, 0.01, 60.0);
+  r.read("stale_after", p.merger.stale_after, 0.01, 60.0);
+  const node::YamlReader f = r.child("files");
+  FilesConfig& files = o.files;
+  f.read("dir", files.dir);
+  if (!files.dir.empty() && files.dir[0] != '/' && !f.directory().empty()) files.dir = f.directory() + "/" + files.dir;
+  f.read("rate_hz", files.rate_hz, 0.01, 1000.0);
+  f.read("loop", files.loop);
+  f.read("camera", files.camera.name);
+  f.readPose("pose", files.camera.T_cell_camera);
+  f.read("min_range", files.camera.min_range, 0.0, 100.0);
+  f.read("max_range", files.camera.max_range, 0.001, 1000.0);
+  if (files.camera.max_range <= files.camera.min_range) f.fail("max_range", "must be greater than min_range");
+  f.finish();
+  r.finish();
+}
+
+// "x,y,z,roll,pitch,yaw" (m, deg) -> pose.
+Pose parsePose(const std::string& text) {
+  std::istringstream s(text);
+  double v[6];
+  char comma = 0;
+  for (int i = 0; i < 6; ++i) {
+    if (!(s >> v[i]) || (i < 5 && (!(s >> comma) || comma != ',')))
+      throw std::invalid_argument("--camera-pose wants x,y,z,roll,pitch,yaw (m, deg), got '" + text + "'");
+  }
+  const double k = M_PI / 180.0;
+  return makePoseRpy({v[0], v[1], v[2]}, v[3] * k, v[4] * k, v[5] * k);
+}
+
+double parseNumber(const std::string& flag, const std::string& text, double lo, double hi) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !(v >= lo && v <= hi)) {
+    std::ostringstream s;
+    s << flag << " wants a number in [" << lo << ", " << hi << "], got '" << text << "'";
+    throw std::invalid_argument(s.str());
+  }
+  return v;
+}
+
+}  // namespace
+
+std::string usage() {
+  return "usage: depowder-camera [options]\n"
+         "  Live: subscribes DEPTH_* (depth_image_t), publishes POINTS (point_cloud_t) in the cell frame.\n"
+         "  Files: plays a directory of .pcd / .ply scans (sorted) instead.\n"
+         "options:\n"
+         "  --cell FILE          cell YAML (default: $DEPOWDER_CELL or config/cell.yaml)\n"
+         "  --files DIR          recorded scans instead of live frames (or perception.files.dir)\n"
+         "  --rate HZ            scans per second in files mode (default 10)\n"
+         "  --loop               replay the scans forever\n"
+         "  --camera-pose P      T_cell_camera of the scans: x,y,z,roll,pitch,yaw (m, deg)\n"
+         "  --camera-name NAME   name the scans' source (default FILES)\n"
+         "  --url URL            LCM URL (overrides lcm.url)\n"
+         "  --prefix P           channel prefix (overrides lcm.prefix)\n"
+         "  --verbose            print every rejected frame (default: at most one line a second per reason)\n";
+}
+
+std::optional<CameraNodeOptions> parseOptions(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  std::string cell_path = node::defaultCellPath();
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--help" || args[i] == "-h") return std::nullopt;
+    if (args[i] == "--cell" && i + 1 < args.size()) cell_path = args[i + 1];
+  }
+  CameraNodeOptions o(node::loadCell(cell_path));
+  o.files.camera.name = "FILES";
+  readSection(o.cell.root.child("perception"), o);
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> const std::string& {
+      if (i + 1 >= args.size()) throw std::invalid_argument(a + " needs a value");
+      return args[++i];
+    };
+    if (a == "--help" || a == "-h") return std::nullopt;
+    if (a == "--cell")
+      value();
+    else if (a == "--files")
+      o.files.dir = value();
+    else if (a == "--rate")
+      o.files.rate_hz = parseNumber(a, value(), 0.01, 1000.0);
+    else if (a == "--loop")
+      o.files.loop = true;
+    else if (a == "--camera-pose")
+      o.files.camera.T_cell_camera = parsePose(value());
+    else if (a == "--camera-name")
+      o.files.camera.name = value();
+    else if (a == "--url")
+      o.cell.lcm.url = value();
+    else if (a == "--prefix")
+      o.cell.lcm.prefix = value();
+    else if (a == "--verbose")
+      o.verbose = true;
+    else
+      throw std::invalid_argument("unknown option '" + a + "'\n" + usage());
+  }
+  return o;
+}
+
+}  // namespace depowder::perception

@@ -1,0 +1,39 @@
+// depowder-camera's settings: the cell YAML's `perception` section, then the command line.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "depowder/node/cell.hpp"
+#include "depowder/perception/config.hpp"
+#include "depowder/perception/depth.hpp"
+
+namespace depowder::perception {
+
+/// Recorded scans instead of live DEPTH_* messages (YAML `perception.files`, or --files).
+struct FilesConfig {
+  std::string dir;       ///< directory of .pcd / .ply files; "" = live mode
+  double rate_hz = 10;   ///< scans published per second
+  bool loop = false;     ///< start over after the last file
+  PinholeCamera camera;  ///< name, pose (T_cell_camera) and z range of the scans; intrinsics unused
+};
+
+struct CameraNodeOptions {
+  explicit CameraNodeOptions(node::CellConfig c) : cell(std::move(c)) {}
+  node::CellConfig cell;
+  PerceptionConfig perception;
+  std::string input = "DEPTH_.*";  ///< LCM channel regex of the depth frames (before the prefix)
+  std::string output = "POINTS";
+  double heartbeat_period = 0.5;  ///< s
+  FilesConfig files;
+  bool verbose = false;
+};
+
+/// Parses argv (see usage()); throws node::ConfigError (bad YAML) or std::invalid_argument
+/// (bad command line) with a message naming what is wrong. Returns nullopt for --help.
+std::optional<CameraNodeOptions> parseOptions(int argc, char** argv);
+
+std::string usage();
+
+}  // namespace depowder::perception

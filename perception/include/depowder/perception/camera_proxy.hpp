@@ -1,0 +1,74 @@
+// The camera proxy pipeline, one call per camera frame and one poll per loop:
+//   frame -> deproject / to cell -> crop -> merge cameras by utime -> voxel grid
+//   -> isolated-voxel removal -> one cloud per time step.
+// No LCM, YAML or file IO: depowder-camera feeds it, tests and benchmarks call it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "depowder/perception/config.hpp"
+#include "depowder/perception/depth.hpp"
+#include "depowder/perception/frame_merger.hpp"
+#include "depowder/perception/voxel_grid.hpp"
+
+namespace depowder::perception {
+
+/// One published time step.
+struct CellCloud {
+  std::int64_t utime = 0;  ///< newest source utime (what POINTS carries)
+  std::vector<std::string> sources;
+  std::vector<std::int64_t> source_utimes;
+  std::vector<std::string> missing;  ///< expected cameras that did not contribute
+  Cloud points;                      ///< cell frame, cropped, downsampled, outliers removed
+  std::size_t points_in = 0;         ///< cropped points of all sources before downsampling
+  std::size_t outliers = 0;          ///< voxels removed as isolated
+};
+
+struct ProxyCounters {
+  std::int64_t frames_in = 0;    ///< camera frames offered
+  std::int64_t frames_out = 0;   ///< time steps released
+  std::int64_t partial_out = 0;  ///< ... of which some expected camera was missing
+  StatusCounts by_status{};      ///< frames offered, by outcome (kOk = used)
+  FrameError last_error;         ///< the most recent rejection
+  std::int64_t dropped() const;  ///< every frame whose status is not kOk
+};
+
+class CameraProxy {
+ public:
+  /// `box_size`: interior of the build box (m); `known_cameras` as FrameMerger's.
+  CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& box_size,
+              std::vector<std::string> known_cameras = {});
+
+  /// A depth frame of `camera`, arrived at wall-clock `arrival` (us).
+  FrameError addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival);
+
+  /// A recorded scan: camera-frame points captured at `utime` by `camera` (pose and range used).
+  FrameError addCameraPoints(const Cloud& camera_points, std::int64_t utime, const PinholeCamera& camera,
+                             std::int64_t arrival);
+
+  /// Counts a frame that never reached the pipeline (e.g. a file that could not be read).
+  void reject(const FrameError& error);
+
+  /// Clouds ready at wall-clock `now`, oldest first.
+  std::vector<CellCloud> poll(std::int64_t now);
+
+  std::int64_t nextDeadline() const { return merger_.nextDeadline(); }
+  std::vector<CameraHealth> health(std::int64_t now) const { return merger_.health(now); }
+  const ProxyCounters& counters() const { return counters_; }
+  const Eigen::AlignedBox3d& crop() const { return crop_; }
+  const PerceptionConfig& config() const { return config_; }
+
+ private:
+  FrameError accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime, std::int64_t arrival);
+  CellCloud finish(MergedFrame&& merged);
+
+  PerceptionConfig config_;
+  Eigen::AlignedBox3d crop_;
+  FrameMerger merger_;
+  VoxelGrid grid_;
+  ProxyCounters counters_;
+};
+
+}  // namespace depowder::perception

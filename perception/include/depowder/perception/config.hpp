@@ -1,0 +1,28 @@
+// Settings of the camera proxy (YAML section `perception`, keys mirror the fields).
+#pragma once
+
+#include <cstdint>
+
+namespace depowder::perception {
+
+/// How frames of different cameras are grouped into one time step.
+struct MergerConfig {
+  double match_tolerance = 0.016;  ///< s: frames whose utimes differ by at most this are one time step
+                                   ///< (<= half a frame period: 16.7 ms at 30 fps)
+  double max_wait = 0.040;         ///< s (wall clock): a time step is published this long after its first frame even if
+                                   ///< a camera is missing, so a dead camera never stalls the stream
+  double silent_after = 1.0;       ///< s (wall clock) without a frame: camera reported silent and no longer waited for
+  double stale_after = 0.5;        ///< s: a camera whose newest utime lags the newest of all cameras by more is stale
+};
+
+struct PerceptionConfig {
+  double crop_margin = 0.005;      ///< m added to every side of the box interior before cropping; less than the
+                                   ///< wall thickness (1 cm), so the outside of the walls is cut away
+  double voxel_leaf = 0.005;       ///< m, voxel side of the downsampling grid (tracker's leaf: 5 mm)
+  int outlier_min_neighbours = 0;  ///< keep a voxel only if at least this many of its 26 neighbours are
+                                   ///< occupied (radius outlier removal at voxel scale); 0 = off
+  double resolution = 0.0005;      ///< m per count of the quantised point_cloud_t on the wire
+  MergerConfig merger;
+};
+
+}  // namespace depowder::perception

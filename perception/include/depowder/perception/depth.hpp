@@ -1,0 +1,72 @@
+// Depth image -> points in the cell frame: deprojection with the camera's
+// intrinsics, extrinsics, range and NaN filtering, and the crop to the build box.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "depowder/geometry.hpp"
+#include "depowder/perception/status.hpp"
+
+namespace depowder::perception {
+
+/// Pinhole model and pose of one depth camera (the fields depth_image_t carries).
+struct PinholeCamera {
+  std::string name;
+  int width = 0;   ///< pixels
+  int height = 0;  ///< pixels
+  double fx = 0;   ///< pixels: u = fx * x / z + cx, v = fy * y / z + cy
+  double fy = 0;
+  double cx = 0;
+  double cy = 0;
+  double min_range = 0;                   ///< m, on the depth z along the optical axis; nearer returns are invalid
+  double max_range = 100;                 ///< m, on z; farther returns are invalid
+  Pose T_cell_camera = Pose::Identity();  ///< camera frame: x right, y down, z forward
+};
+
+/// One depth frame (no LCM types; the executable converts depth_image_t).
+struct DepthImage {
+  std::int64_t utime = 0;  ///< capture time, us
+  std::int64_t frame = 0;  ///< per-camera counter
+  int width = 0;           ///< pixels, as the header says
+  int height = 0;
+  double depth_unit = 0.00025;       ///< m per count (L515: 0.25 mm)
+  std::vector<std::uint16_t> depth;  ///< row-major z in counts, 0 = no return
+};
+
+/// What became of the pixels (or points) of one frame.
+struct FrameCounts {
+  std::size_t inputs = 0;        ///< pixels or points looked at
+  std::size_t no_return = 0;     ///< 0 or non-finite
+  std::size_t out_of_range = 0;  ///< z outside [min_range, max_range]
+  std::size_t outside_crop = 0;  ///< valid, but outside the crop box
+  std::size_t kept = 0;
+};
+
+/// One camera's frame as points in the cell frame, valid and inside the crop box.
+struct CameraCloud {
+  FrameError error;  ///< kOk, or why the frame was rejected (then `points` is empty)
+  Cloud points;
+  FrameCounts counts;
+};
+
+/// The crop region: the box interior (cell origin at the floor centre, z up) grown by
+/// `margin` (m) on every side.
+Eigen::AlignedBox3d cropBox(const Eigen::Vector3d& box_size, double margin);
+
+/// Checks the header of a depth frame against its camera: sizes, finite positive
+/// intrinsics and depth unit, a rigid pose, 0 <= min_range < max_range.
+FrameError checkDepthImage(const DepthImage& image, const PinholeCamera& camera);
+
+/// Deprojects every pixel with a return in range, moves it to the cell frame with
+/// T_cell_camera and keeps it if it lies in `crop`. Rejects a bad header (see
+/// checkDepthImage) and a frame with no valid return at all.
+CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, const Eigen::AlignedBox3d& crop);
+
+/// The same for a recorded scan given as camera-frame points (organised or not):
+/// non-finite points and z outside the camera's range are dropped; intrinsics are unused.
+CameraCloud cameraPointsToCell(const Cloud& camera_points, const PinholeCamera& camera,
+                               const Eigen::AlignedBox3d& crop);
+
+}  // namespace depowder::perception

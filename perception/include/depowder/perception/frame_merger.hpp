@@ -1,0 +1,86 @@
+// Groups the frames of several cameras into time steps (matching by utime within a
+// tolerance) and releases each time step once every expected camera has contributed
+// or once it has waited max_wait, so a missing or dead camera never stalls the stream.
+//
+// Two clocks: `utime` is the capture time a frame carries (matching, staleness; works
+// for replayed logs), `now` / `arrival` is the wall clock of this process (waiting,
+// silence). Both in microseconds; the caller passes them, so tests control time.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "depowder/geometry.hpp"
+#include "depowder/perception/config.hpp"
+#include "depowder/perception/status.hpp"
+
+namespace depowder::perception {
+
+struct CameraFrame {
+  std::string camera;
+  std::int64_t utime = 0;  ///< capture time, us
+  Cloud points;            ///< cell frame
+};
+
+struct MergedFrame {
+  std::int64_t utime = 0;            ///< newest utime among the sources
+  std::vector<CameraFrame> sources;  ///< sorted by camera name
+  std::vector<std::string> missing;  ///< cameras that were expected but did not contribute
+};
+
+struct CameraHealth {
+  std::string name;
+  std::int64_t frames = 0;    ///< frames accepted
+  double last_seen_age = -1;  ///< s since the last frame arrived (wall clock); -1 = never
+  double utime_lag = 0;       ///< s its newest utime lags the newest of all cameras
+  bool silent = false;        ///< never seen, or nothing for silent_after (then not waited for)
+  bool stale = false;         ///< utime_lag > stale_after (then not waited for)
+};
+
+class FrameMerger {
+ public:
+  /// `known_cameras` (e.g. from the cell YAML) are reported by health() even before (or
+  /// if never) they send anything; they are waited for only once they have been seen.
+  explicit FrameMerger(MergerConfig config = {}, std::vector<std::string> known_cameras = {});
+
+  /// Files a frame under its time step. kLate: its time step was already released;
+  /// kDuplicate: the same camera already has a frame with this utime waiting.
+  FrameError add(CameraFrame frame, std::int64_t arrival);
+
+  /// Time steps ready at `now`, oldest first (utime strictly increasing across calls).
+  std::vector<MergedFrame> poll(std::int64_t now);
+
+  /// Wall-clock time (us) at which the oldest waiting time step times out; 0 if none waits.
+  std::int64_t nextDeadline() const;
+
+  /// Every camera seen or known, sorted by name.
+  std::vector<CameraHealth> health(std::int64_t now) const;
+
+  std::size_t pending() const { return pending_.size(); }
+
+ private:
+  struct Group {
+    std::int64_t utime = 0;          ///< utime of the first frame (matching reference)
+    std::int64_t first_arrival = 0;  ///< wall clock
+    std::map<std::string, CameraFrame> frames;
+  };
+  struct Camera {
+    std::int64_t frames = 0;        ///< accepted
+    std::int64_t last_arrival = 0;  ///< 0 = never
+    std::int64_t last_utime = 0;
+  };
+  /// Waited for: seen within silent_after and not stale.
+  bool expected(const Camera& c, std::int64_t now) const;
+  bool stale(const Camera& c) const;
+  MergedFrame release(Group&& group, std::int64_t now) const;
+
+  MergerConfig config_;
+  std::map<std::string, Camera> cameras_;
+  std::vector<Group> pending_;               ///< sorted by utime
+  std::int64_t released_utime_ = INT64_MIN;  ///< reference utime of the last released group
+  std::int64_t newest_utime_ = INT64_MIN;
+};
+
+}  // namespace depowder::perception

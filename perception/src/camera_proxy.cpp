@@ -1,0 +1,66 @@
+#include "depowder/perception/camera_proxy.hpp"
+
+#include <numeric>
+
+namespace depowder::perception {
+
+std::int64_t ProxyCounters::dropped() const {
+  return std::accumulate(by_status.begin() + 1, by_status.end(), std::int64_t{0});
+}
+
+CameraProxy::CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& box_size,
+                         std::vector<std::string> known_cameras)
+    : config_(config),
+      crop_(cropBox(box_size, config.crop_margin)),
+      merger_(config.merger, std::move(known_cameras)),
+      grid_(crop_, config.voxel_leaf) {}
+
+FrameError CameraProxy::addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival) {
+  return accept(deproject(image, camera, crop_), camera.name, image.utime, arrival);
+}
+
+FrameError CameraProxy::addCameraPoints(const Cloud& camera_points, std::int64_t utime, const PinholeCamera& camera,
+                                        std::int64_t arrival) {
+  return accept(cameraPointsToCell(camera_points, camera, crop_), camera.name, utime, arrival);
+}
+
+void CameraProxy::reject(const FrameError& error) {
+  ++counters_.frames_in;
+  ++counters_.by_status[static_cast<std::size_t>(error.status)];
+  if (!error.ok()) counters_.last_error = error;
+}
+
+FrameError CameraProxy::accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime,
+                               std::int64_t arrival) {
+  FrameError result = cloud.error;
+  if (result.ok()) result = merger_.add(CameraFrame{camera, utime, std::move(cloud.points)}, arrival);
+  reject(result);
+  return result;
+}
+
+std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {
+  std::vector<CellCloud> out;
+  for (MergedFrame& merged : merger_.poll(now)) out.push_back(finish(std::move(merged)));
+  return out;
+}
+
+CellCloud CameraProxy::finish(MergedFrame&& merged) {
+  CellCloud out;
+  out.utime = merged.utime;
+  out.missing = std::move(merged.missing);
+  // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
+  for (const CameraFrame& f : merged.sources) {
+    out.sources.push_back(f.camera);
+    out.source_utimes.push_back(f.utime);
+    out.points_in += f.points.size();
+    grid_.add(f.points);
+  }
+  VoxelGrid::Result voxels = grid_.extract(config_.outlier_min_neighbours);
+  out.points = std::move(voxels.points);
+  out.outliers = voxels.outliers;
+  ++counters_.frames_out;
+  if (!out.missing.empty()) ++counters_.partial_out;
+  return out;
+}
+
+}  // namespace depowder::perception

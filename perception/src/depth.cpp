@@ -1,0 +1,154 @@
+#include "depowder/perception/depth.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace depowder::perception {
+
+namespace {
+
+FrameError fail(FrameStatus status, const std::string& camera, const std::string& what) {
+  return {status, "camera '" + camera + "': " + what};
+}
+
+// Pose and range limits: what both depth images and recorded scans need.
+FrameError checkPoseAndRange(const PinholeCamera& camera) {
+  if (!isValidPose(camera.T_cell_camera, 1e-4))
+    return fail(FrameStatus::kBadHeader, camera.name, "T_cell_camera is not a finite rigid transform");
+  if (!std::isfinite(camera.min_range) || !std::isfinite(camera.max_range) || camera.min_range < 0 ||
+      camera.max_range <= camera.min_range) {
+    std::ostringstream s;
+    s << "range limits [" << camera.min_range << ", " << camera.max_range << "] m are invalid";
+    return fail(FrameStatus::kBadHeader, camera.name, s.str());
+  }
+  return {};
+}
+
+bool inside(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p) {
+  return (p.array() >= box.min().array()).all() && (p.array() <= box.max().array()).all();
+}
+
+}  // namespace
+
+Eigen::AlignedBox3d cropBox(const Eigen::Vector3d& box_size, double margin) {
+  const Eigen::Vector3d m = Eigen::Vector3d::Constant(margin);
+  return {Eigen::Vector3d(-0.5 * box_size.x(), -0.5 * box_size.y(), 0.0) - m,
+          Eigen::Vector3d(0.5 * box_size.x(), 0.5 * box_size.y(), box_size.z()) + m};
+}
+
+FrameError checkDepthImage(const DepthImage& image, const PinholeCamera& camera) {
+  if (image.width <= 0 || image.height <= 0) {
+    std::ostringstream s;
+    s << "frame " << image.frame << " has an impossible size " << image.width << "x" << image.height;
+    return fail(FrameStatus::kBadHeader, camera.name, s.str());
+  }
+  const std::size_t expected = static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height);
+  if (image.depth.size() != expected) {
+    std::ostringstream s;
+    s << "frame " << image.frame << " carries " << image.depth.size() << " depth pixels but its header says "
+      << image.width << "x" << image.height << " = " << expected;
+    return fail(FrameStatus::kSizeMismatch, camera.name, s.str());
+  }
+  if (camera.width > 0 && (camera.width != image.width || camera.height != image.height)) {
+    std::ostringstream s;
+    s << "frame " << image.frame << " is " << image.width << "x" << image.height << " but the camera is "
+      << camera.width << "x" << camera.height;
+    return fail(FrameStatus::kSizeMismatch, camera.name, s.str());
+  }
+  const Eigen::Vector4d k(camera.fx, camera.fy, camera.cx, camera.cy);
+  if (!k.allFinite() || camera.fx <= 0 || camera.fy <= 0)
+    return fail(FrameStatus::kBadHeader, camera.name, "intrinsics (fx, fy, cx, cy) are not finite and positive");
+  if (!std::isfinite(image.depth_unit) || image.depth_unit <= 0)
+    return fail(FrameStatus::kBadHeader, camera.name, "depth_unit must be a finite positive number of metres");
+  return checkPoseAndRange(camera);
+}
+
+CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, const Eigen::AlignedBox3d& crop) {
+  CameraCloud out;
+  out.error = checkDepthImage(image, camera);
+  if (!out.error.ok()) return out;
+  const int w = image.width, h = image.height;
+  // p_cell = t + z * R * [(u - cx) / fx, (v - cy) / fy, 1]: the bracket splits into a
+  // per-column and a per-row term, so a pixel costs three multiply-adds.
+  const Eigen::Matrix3d& R = camera.T_cell_camera.linear();
+  const Eigen::Vector3d t = camera.T_cell_camera.translation();
+  std::vector<Eigen::Vector3d> column(static_cast<std::size_t>(w)), row(static_cast<std::size_t>(h));
+  for (int u = 0; u < w; ++u) column[u] = R.col(0) * ((u - camera.cx) / camera.fx);
+  for (int v = 0; v < h; ++v) row[v] = R.col(1) * ((v - camera.cy) / camera.fy) + R.col(2);
+  // Range limits in counts (inclusive), so the inner loop compares integers.
+  const double unit = image.depth_unit;
+  const double lo = std::max(1.0, std::ceil(camera.min_range / unit - 1e-9));
+  const double hi = std::min(65535.0, std::floor(camera.max_range / unit + 1e-9));
+  const std::uint32_t min_count = static_cast<std::uint32_t>(lo);
+  const std::uint32_t max_count = hi < lo ? 0u : static_cast<std::uint32_t>(hi);
+
+  FrameCounts& n = out.counts;
+  n.inputs = image.depth.size();
+  out.points.reserve(n.inputs / 2);
+  const std::uint16_t* d = image.depth.data();
+  for (int v = 0; v < h; ++v) {
+    const Eigen::Vector3d& rv = row[v];
+    for (int u = 0; u < w; ++u, ++d) {
+      const std::uint32_t raw = *d;
+      if (raw == 0) {
+        ++n.no_return;
+        continue;
+      }
+      if (raw < min_count || raw > max_count) {
+        ++n.out_of_range;
+        continue;
+      }
+      const double z = raw * unit;
+      const Eigen::Vector3d p = t + z * (column[u] + rv);
+      if (!inside(crop, p)) {
+        ++n.outside_crop;
+        continue;
+      }
+      out.points.push_back(p);
+    }
+  }
+  n.kept = out.points.size();
+  if (n.kept + n.outside_crop == 0) {
+    std::ostringstream s;
+    s << "frame " << image.frame << " has no valid return (" << n.no_return << " of " << n.inputs << " pixels empty, "
+      << n.out_of_range << " out of range)";
+    out.error = fail(FrameStatus::kNoValidReturns, camera.name, s.str());
+  }
+  return out;
+}
+
+CameraCloud cameraPointsToCell(const Cloud& camera_points, const PinholeCamera& camera,
+                               const Eigen::AlignedBox3d& crop) {
+  CameraCloud out;
+  out.error = checkPoseAndRange(camera);
+  if (!out.error.ok()) return out;
+  FrameCounts& n = out.counts;
+  n.inputs = camera_points.size();
+  out.points.reserve(n.inputs / 2);
+  for (const Eigen::Vector3d& q : camera_points) {
+    if (!q.allFinite()) {
+      ++n.no_return;
+      continue;
+    }
+    if (q.z() < camera.min_range || q.z() > camera.max_range) {
+      ++n.out_of_range;
+      continue;
+    }
+    const Eigen::Vector3d p = camera.T_cell_camera * q;
+    if (!inside(crop, p)) {
+      ++n.outside_crop;
+      continue;
+    }
+    out.points.push_back(p);
+  }
+  n.kept = out.points.size();
+  if (n.kept + n.outside_crop == 0) {
+    std::ostringstream s;
+    s << "scan has no valid point (" << n.no_return << " of " << n.inputs << " NaN or infinite, " << n.out_of_range
+      << " out of range)";
+    out.error = fail(FrameStatus::kNoValidReturns, camera.name, s.str());
+  }
+  return out;
+}
+
+}  // namespace depowder::perception

@@ -1,0 +1,50 @@
+#include "depowder/perception/point_file.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <stdexcept>
+
+namespace depowder::perception {
+
+namespace {
+std::string lowerExtension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+}  // namespace
+
+PointFile readPointFile(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  if (ext == ".pcd") return readPcd(path);
+  if (ext == ".ply") return readPly(path);
+  PointFile out;
+  out.error = {FrameStatus::kUnreadable, path + ": not a .pcd or .ply file"};
+  return out;
+}
+
+FileSource::FileSource(const std::string& directory, bool loop) : loop_(loop) {
+  std::error_code ec;
+  std::filesystem::directory_iterator it(directory, ec);
+  if (ec) throw std::runtime_error("cannot list scan directory '" + directory + "': " + ec.message());
+  for (const auto& entry : it) {
+    const std::string ext = lowerExtension(entry.path().string());
+    if ((ext == ".pcd" || ext == ".ply") && !entry.is_directory()) files_.push_back(entry.path().string());
+  }
+  if (files_.empty()) throw std::runtime_error("scan directory '" + directory + "' holds no .pcd or .ply file");
+  std::sort(files_.begin(), files_.end());
+}
+
+bool FileSource::next(PointFile& scan, std::string* path) {
+  if (index_ >= files_.size()) {
+    if (!loop_) return false;
+    index_ = 0;
+  }
+  const std::string& file = files_[index_++];
+  if (path) *path = file;
+  scan = readPointFile(file);
+  return true;
+}
+
+}  // namespace depowder::perception

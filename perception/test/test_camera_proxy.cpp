@@ -1,0 +1,153 @@
+// The whole pipeline on rendered frames of the default two-camera rig.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "depowder/perception/camera_proxy.hpp"
+#include "depowder/point_grid.hpp"
+#include "synthetic.hpp"
+
+using namespace depowder;
+using namespace depowder::perception;
+using namespace depowder::perception::synthetic;
+
+namespace {
+constexpr std::int64_t kT0 = 1'700'000'000'000'000;
+const Eigen::Vector3d kBox(0.4, 0.3, 0.2);
+
+Scene scene() { return boxScene(kBox, 0.08, {Sphere{{0.02, 0.01, 0.09}, 0.04}}); }
+
+double percentile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(q * (v.size() - 1))];
+}
+}  // namespace
+
+TEST(CameraProxy, TwoCamerasMergeIntoOneCroppedDownsampledCloud) {
+  const auto rig = defaultRig(320, 240);
+  const Scene s = scene();
+  PerceptionConfig cfg;
+  CameraProxy proxy(cfg, kBox, {"LEFT", "RIGHT"});
+  const DepthImage left = render(s, rig[0], kT0), right = render(s, rig[1], kT0 + 2000);
+  ASSERT_TRUE(proxy.addDepth(left, rig[0], kT0 + 1000).ok());
+  ASSERT_TRUE(proxy.addDepth(right, rig[1], kT0 + 3000).ok());
+  const auto out = proxy.poll(kT0 + 3000);
+  ASSERT_EQ(out.size(), 1u);
+  const CellCloud& c = out[0];
+  EXPECT_EQ(c.utime, kT0 + 2000);
+  EXPECT_EQ(c.sources, (std::vector<std::string>{"LEFT", "RIGHT"}));
+  EXPECT_EQ(c.source_utimes, (std::vector<std::int64_t>{kT0, kT0 + 2000}));
+  // Same as deprojecting, concatenating and running depowder::voxelDownsample by hand.
+  Cloud all = deproject(left, rig[0], proxy.crop()).points;
+  const Cloud r = deproject(right, rig[1], proxy.crop()).points;
+  all.insert(all.end(), r.begin(), r.end());
+  EXPECT_EQ(c.points_in, all.size());
+  EXPECT_EQ(c.points.size(), voxelDownsample(all, cfg.voxel_leaf).size());
+  // Powder surface visible: 40 x 30 cm at 5 mm is 4800 voxels, minus the sphere's footprint.
+  EXPECT_GT(c.points.size(), 4000u);
+  EXPECT_LT(c.points.size(), 15000u);
+  // Every point finite, in the crop box, and on the scene's surface: a voxel centroid of a
+  // plane lies on it; only voxels straddling an edge (wall / powder, sphere / powder) move off.
+  std::vector<double> d;
+  for (const auto& p : c.points) {
+    ASSERT_TRUE(p.allFinite());
+    ASSERT_TRUE(proxy.crop().contains(p));
+    d.push_back(s.distance(p));
+  }
+  EXPECT_LT(percentile(d, 0.5), 0.0003);
+  EXPECT_LT(percentile(d, 0.95), 0.0010);
+  EXPECT_LT(percentile(d, 1.0), 0.5 * cfg.voxel_leaf * std::sqrt(3.0));
+  EXPECT_EQ(proxy.counters().frames_in, 2);
+  EXPECT_EQ(proxy.counters().frames_out, 1);
+  EXPECT_EQ(proxy.counters().dropped(), 0);
+}
+
+TEST(CameraProxy, OutputDoesNotDependOnArrivalOrder) {
+  const auto rig = defaultRig(160, 120);
+  const Scene s = scene();
+  const DepthImage left = render(s, rig[0], kT0), right = render(s, rig[1], kT0);
+  CameraProxy a(PerceptionConfig{}, kBox), b(PerceptionConfig{}, kBox);
+  a.addDepth(left, rig[0], kT0);
+  a.addDepth(right, rig[1], kT0);
+  b.addDepth(right, rig[1], kT0);
+  b.addDepth(left, rig[0], kT0);
+  const auto pa = a.poll(kT0), pb = b.poll(kT0);
+  ASSERT_EQ(pa.size(), 1u);
+  ASSERT_EQ(pb.size(), 1u);
+  ASSERT_EQ(pa[0].points.size(), pb[0].points.size());
+  for (std::size_t i = 0; i < pa[0].points.size(); ++i) ASSERT_EQ(pa[0].points[i], pb[0].points[i]);
+}
+
+TEST(CameraProxy, CorruptFramesAreCountedAndTheStreamGoesOn) {
+  const auto rig = defaultRig(160, 120);
+  const Scene s = scene();
+  CameraProxy proxy(PerceptionConfig{}, kBox, {"LEFT", "RIGHT"});
+  std::int64_t t = kT0;
+  auto step = [&](bool corrupt_right, bool blind_left) {
+    DepthImage l = render(s, rig[0], t), r = render(s, rig[1], t);
+    if (corrupt_right) r.depth.resize(r.depth.size() - 10);
+    if (blind_left) std::fill(l.depth.begin(), l.depth.end(), 0);
+    const FrameError el = proxy.addDepth(l, rig[0], t), er = proxy.addDepth(r, rig[1], t);
+    t += 33'333;
+    return std::make_pair(el, er);
+  };
+  step(false, false);
+  ASSERT_EQ(proxy.poll(t).size(), 1u);
+  const auto [el, er] = step(true, false);
+  EXPECT_TRUE(el.ok());
+  EXPECT_EQ(er.status, FrameStatus::kSizeMismatch);
+  // LEFT's frame goes out without RIGHT after max_wait.
+  auto out = proxy.poll(t - 33'333 + 41'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].sources, std::vector<std::string>{"LEFT"});
+  EXPECT_EQ(out[0].missing, std::vector<std::string>{"RIGHT"});
+  const auto [el2, er2] = step(false, true);
+  EXPECT_EQ(el2.status, FrameStatus::kNoValidReturns);
+  EXPECT_TRUE(er2.ok());
+  out = proxy.poll(t - 33'333 + 41'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].sources, std::vector<std::string>{"RIGHT"});
+  step(false, false);
+  out = proxy.poll(t);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].sources.size(), 2u);
+  const ProxyCounters& c = proxy.counters();
+  EXPECT_EQ(c.frames_in, 8);
+  EXPECT_EQ(c.frames_out, 4);
+  EXPECT_EQ(c.partial_out, 2);
+  EXPECT_EQ(c.dropped(), 2);
+  EXPECT_EQ(c.by_status[static_cast<int>(FrameStatus::kSizeMismatch)], 1);
+  EXPECT_EQ(c.by_status[static_cast<int>(FrameStatus::kNoValidReturns)], 1);
+  EXPECT_EQ(c.last_error.status, FrameStatus::kNoValidReturns);
+}
+
+// Flying pixels at depth edges (the sphere's silhouette against the powder) make isolated
+// voxels; isolated-voxel removal takes most of them and almost none of the surface.
+TEST(CameraProxy, IsolatedVoxelRemovalTakesFlyingPixels) {
+  const auto rig = defaultRig(320, 240);
+  const Scene s = boxScene(kBox, 0.04, {Sphere{{0.0, 0.0, 0.07}, 0.05}, Sphere{{0.1, 0.05, 0.05}, 0.03}});
+  std::mt19937 rng(3);
+  Noise noise;
+  noise.sigma_base = 0;
+  noise.sigma_per_m = 0;
+  noise.flying_pixel_prob = 1.0;
+  auto run = [&](int min_neighbours, std::size_t& far, std::size_t& total) {
+    PerceptionConfig cfg;
+    cfg.outlier_min_neighbours = min_neighbours;
+    CameraProxy proxy(cfg, kBox);
+    std::mt19937 local = rng;  // same noise for both runs
+    for (const auto& cam : rig) proxy.addDepth(render(s, cam, kT0, 0.00025, &noise, &local), cam, kT0);
+    const auto out = proxy.poll(kT0);
+    EXPECT_EQ(out.size(), 1u);
+    far = 0;
+    for (const auto& p : out[0].points) far += s.distance(p) > 0.005;
+    total = out[0].points.size();
+  };
+  std::size_t far0 = 0, total0 = 0, far1 = 0, total1 = 0;
+  run(0, far0, total0);
+  run(2, far1, total1);
+  EXPECT_GT(far0, 50u);                            // flying pixels do reach the cloud
+  EXPECT_LT(far1, far0 / 3);                       // most are removed
+  EXPECT_GT(total1, total0 - far0 - total0 / 50);  // and at most 2 % of the surface with them
+}

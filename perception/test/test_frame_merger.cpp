@@ -1,0 +1,142 @@
+// Frame merger: matching by utime, max wait, silent / stale cameras, late and duplicate frames.
+#include <gtest/gtest.h>
+
+#include "depowder/perception/frame_merger.hpp"
+
+using namespace depowder;
+using namespace depowder::perception;
+
+namespace {
+constexpr std::int64_t kMs = 1000;
+constexpr std::int64_t kT0 = 1'700'000'000'000'000;  // some wall-clock epoch, us
+
+CameraFrame frame(const std::string& cam, std::int64_t utime, std::size_t n = 1) {
+  return {cam, utime, Cloud(n, Eigen::Vector3d(0, 0, 0.1))};
+}
+
+MergerConfig config() {
+  MergerConfig c;
+  c.match_tolerance = 0.016;
+  c.max_wait = 0.040;
+  c.silent_after = 1.0;
+  c.stale_after = 0.5;
+  return c;
+}
+}  // namespace
+
+TEST(FrameMerger, TwoCamerasOneTimeStep) {
+  FrameMerger m(config(), {"LEFT", "RIGHT"});
+  // Both cameras have been seen once (they are expected from then on).
+  ASSERT_TRUE(m.add(frame("LEFT", kT0), kT0).ok());
+  ASSERT_TRUE(m.add(frame("RIGHT", kT0 + 3 * kMs, 2), kT0 + 1 * kMs).ok());
+  auto out = m.poll(kT0 + 1 * kMs);
+  ASSERT_EQ(out.size(), 1u);  // both arrived before the first poll
+  ASSERT_EQ(out[0].sources.size(), 2u);
+  EXPECT_EQ(out[0].sources[0].camera, "LEFT");
+  EXPECT_EQ(out[0].sources[1].camera, "RIGHT");
+  EXPECT_EQ(out[0].utime, kT0 + 3 * kMs);  // newest source
+  EXPECT_TRUE(out[0].missing.empty());
+  // Next step: LEFT arrives, RIGHT is expected -> nothing yet; RIGHT arrives -> released at once.
+  ASSERT_TRUE(m.add(frame("LEFT", kT0 + 33 * kMs), kT0 + 34 * kMs).ok());
+  EXPECT_TRUE(m.poll(kT0 + 34 * kMs).empty());
+  EXPECT_EQ(m.nextDeadline(), kT0 + 74 * kMs);
+  ASSERT_TRUE(m.add(frame("RIGHT", kT0 + 36 * kMs), kT0 + 37 * kMs).ok());
+  out = m.poll(kT0 + 37 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].sources.size(), 2u);
+  EXPECT_EQ(m.pending(), 0u);
+}
+
+TEST(FrameMerger, MissingCameraWaitsAtMostMaxWaitThenStopsBeingWaitedFor) {
+  FrameMerger m(config());
+  m.add(frame("LEFT", kT0), kT0);
+  m.add(frame("RIGHT", kT0), kT0);
+  ASSERT_EQ(m.poll(kT0).size(), 1u);
+  // RIGHT dies. LEFT's next frame waits max_wait (40 ms), then goes out without RIGHT.
+  m.add(frame("LEFT", kT0 + 33 * kMs), kT0 + 33 * kMs);
+  EXPECT_TRUE(m.poll(kT0 + 72 * kMs).empty());
+  auto out = m.poll(kT0 + 73 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  ASSERT_EQ(out[0].sources.size(), 1u);
+  EXPECT_EQ(out[0].missing, std::vector<std::string>{"RIGHT"});
+  // Once RIGHT has been silent for silent_after (1 s), LEFT's frames go out at once.
+  const std::int64_t later = kT0 + 1100 * kMs;
+  m.add(frame("LEFT", later), later);
+  out = m.poll(later);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_TRUE(out[0].missing.empty());
+  const auto health = m.health(later);
+  ASSERT_EQ(health.size(), 2u);
+  EXPECT_EQ(health[1].name, "RIGHT");
+  EXPECT_TRUE(health[1].silent);
+  EXPECT_NEAR(health[1].last_seen_age, 1.1, 1e-9);
+  EXPECT_FALSE(health[0].silent);
+}
+
+TEST(FrameMerger, KnownButNeverSeenCameraIsReportedAndNotWaitedFor) {
+  FrameMerger m(config(), {"LEFT", "RIGHT"});
+  m.add(frame("LEFT", kT0), kT0);
+  EXPECT_EQ(m.poll(kT0).size(), 1u);
+  const auto health = m.health(kT0);
+  ASSERT_EQ(health.size(), 2u);
+  EXPECT_TRUE(health[1].silent);
+  EXPECT_EQ(health[1].last_seen_age, -1);
+  EXPECT_EQ(health[1].frames, 0);
+}
+
+TEST(FrameMerger, UnsynchronisedCamerasPairWithTheClosestFrame) {
+  FrameMerger m(config());
+  // RIGHT runs 12 ms after LEFT; frames arrive interleaved and out of order.
+  m.add(frame("LEFT", kT0), kT0);
+  m.add(frame("RIGHT", kT0 + 12 * kMs), kT0 + 13 * kMs);
+  ASSERT_EQ(m.poll(kT0 + 13 * kMs).size(), 1u);
+  for (int i = 1; i <= 5; ++i) {
+    const std::int64_t t = kT0 + i * 33 * kMs;
+    ASSERT_TRUE(m.add(frame("LEFT", t), t + kMs).ok());
+    ASSERT_TRUE(m.add(frame("RIGHT", t + 12 * kMs), t + 13 * kMs).ok());
+  }
+  const auto out = m.poll(kT0 + 200 * kMs);
+  ASSERT_EQ(out.size(), 5u);
+  std::int64_t previous = 0;
+  for (const auto& f : out) {
+    ASSERT_EQ(f.sources.size(), 2u);
+    EXPECT_EQ(f.sources[1].utime - f.sources[0].utime, 12 * kMs);
+    EXPECT_GT(f.utime, previous);
+    previous = f.utime;
+  }
+}
+
+TEST(FrameMerger, LateAndDuplicateFramesAreRejected) {
+  FrameMerger m(config());
+  ASSERT_TRUE(m.add(frame("LEFT", kT0), kT0).ok());
+  const FrameError dup = m.add(frame("LEFT", kT0), kT0);
+  EXPECT_EQ(dup.status, FrameStatus::kDuplicate);
+  ASSERT_EQ(m.poll(kT0).size(), 1u);
+  // RIGHT's frame for the released step arrives afterwards: late.
+  const FrameError late = m.add(frame("RIGHT", kT0 + 5 * kMs), kT0 + 50 * kMs);
+  EXPECT_EQ(late.status, FrameStatus::kLate);
+  EXPECT_NE(late.message.find("RIGHT"), std::string::npos);
+  // The next step is fine.
+  EXPECT_TRUE(m.add(frame("RIGHT", kT0 + 33 * kMs), kT0 + 51 * kMs).ok());
+}
+
+TEST(FrameMerger, StaleCameraIsReportedAndNotWaitedFor) {
+  FrameMerger m(config());
+  // RIGHT's clock is 2 s behind: its frames are late, it is reported stale, LEFT flows on.
+  for (int i = 0; i < 10; ++i) {
+    const std::int64_t t = kT0 + i * 33 * kMs;
+    ASSERT_TRUE(m.add(frame("LEFT", t), t).ok());
+    const FrameError e = m.add(frame("RIGHT", t - 2000 * kMs), t + kMs);
+    if (i > 0) {
+      EXPECT_EQ(e.status, FrameStatus::kLate);
+    }
+    const auto out = m.poll(t + kMs);
+    ASSERT_EQ(out.size(), i == 0 ? 2u : 1u) << i;  // step 0: RIGHT's first frame goes out alone, first
+  }
+  const auto health = m.health(kT0 + 400 * kMs);
+  ASSERT_EQ(health.size(), 2u);
+  EXPECT_TRUE(health[1].stale);
+  EXPECT_FALSE(health[1].silent);
+  EXPECT_NEAR(health[1].utime_lag, 2.0, 1e-9);
+  EXPECT_FALSE(health[0].stale);
+}
