@@ -5,6 +5,7 @@
 #include <deque>
 #include <limits>
 #include <unordered_map>
+#include <vector>
 
 namespace depowder::progress {
 namespace {
@@ -68,16 +69,27 @@ Polyline2 resample(const Polyline2& loop, double spacing) {
 
 Footprint::Footprint(const Cloud& cad_in_cell, double cell, double close_radius, double reach) {
   if (cad_in_cell.empty() || !(cell > 0)) return;
+  // Project to z = 0, one sample per cell / 4 lattice square: samples stacked along z (walls) collapse,
+  // and distances stay within cell / 6 of the exact ones.
   auto flat = std::make_shared<Cloud>();
-  flat->reserve(cad_in_cell.size());
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(kInf), hi = -lo;
   for (const Point& p : cad_in_cell) {
-    flat->emplace_back(p.x(), p.y(), 0.0);
     lo = lo.cwiseMin(p.head<2>());
     hi = hi.cwiseMax(p.head<2>());
   }
+  {
+    double fine = 0.25 * cell;
+    while ((hi.x() - lo.x()) * (hi.y() - lo.y()) / (fine * fine) > 4e6) fine *= 2;  // a huge "part"
+    const long nx = static_cast<long>((hi.x() - lo.x()) / fine) + 1,
+               ny = static_cast<long>((hi.y() - lo.y()) / fine) + 1;
+    std::vector<char> seen(static_cast<std::size_t>(nx * ny), 0);
+    for (const Point& p : cad_in_cell) {
+      const long key = static_cast<long>((p.y() - lo.y()) / fine) * nx + static_cast<long>((p.x() - lo.x()) / fine);
+      if (!seen[key]) seen[key] = 1, flat->emplace_back(p.x(), p.y(), 0.0);
+    }
+  }
   flat_ = flat;
-  grid_ = PointGrid(*flat_, std::max(reach, cell));
+  grid_ = PointGrid(*flat_, std::max(2 * cell, reach / 3));
 
   // Raster with a border wider than `reach`, so the border is outside every iso-line asked for.
   cell_ = cell;
@@ -142,8 +154,9 @@ Footprint::Footprint(const Cloud& cad_in_cell, double cell, double close_radius,
 
 int Footprint::cellIndex(const Point2& p) const {
   const Eigen::Vector2d q = (p - origin_) / cell_;
-  const int x = static_cast<int>(std::lround(q.x())), y = static_cast<int>(std::lround(q.y()));
-  if (!(x >= 0 && x < width_ && y >= 0 && y < height_)) return -1;
+  const double fx = std::floor(q.x() + 0.5), fy = std::floor(q.y() + 0.5);
+  if (!(fx >= 0 && fx < width_ && fy >= 0 && fy < height_)) return -1;  // also NaN
+  const int x = static_cast<int>(fx), y = static_cast<int>(fy);
   return y * width_ + x;
 }
 

@@ -35,10 +35,11 @@ std::string checkConfig(double xi, const ProgressConfig& c) {
   return "";
 }
 
-double median(std::vector<double> v) {
-  const std::size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
+/// The q-quantile (nearest rank) of v; v is reordered.
+double quantile(std::vector<double>& v, double q) {
+  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
 }
 
 /// Heights of the contour vertices: the mean band height within `radius`; vertices with no band
@@ -136,18 +137,25 @@ ProgressEstimate estimateProgress(const Cloud& cad_in_cell, const Cloud& scan, d
   band_box.max().array() += r_out;
 
   // 4. Segmentation (Fig. 8a) and band candidates (Fig. 8b).
+  const double slack = 1.5 * config.grid_cell;
   std::size_t finite = 0;
   Cloud candidates;
   for (const Point& p : scan) {
     if (!p.allFinite()) continue;
     ++finite;
     if (!band_box.contains(p.head<2>())) continue;
-    if (near_box.contains(p) && cad_grid.nearest(p, xi).found()) {
+    // The raster distance is within sqrt(2) cells of the exact 2-D one: it settles most points, the
+    // exact (slower) distances only those near the band's edges. 3-D distance >= 2-D distance.
+    const Point2 q = p.head<2>();
+    const double f = footprint.rasterDistance(q);  // -1 in a filled hole, +inf off the raster
+    if (f > r_out + slack) continue;               // powder away from the part
+    if (f <= xi + slack && near_box.contains(p) && cad_grid.nearest(p, xi).found()) {
       out.part.push_back(p);  // within xi of the posed CAD surface
       continue;
     }
-    const double d = footprint.distance(p.head<2>(), r_out);  // +inf beyond the band
-    if (d <= r_in || !footprint.outside(p.head<2>())) {
+    const bool over_part = f < r_in - slack;                          // includes the holes (-1)
+    const double d = over_part ? 0.0 : footprint.distance(q, r_out);  // +inf beyond the band
+    if (d <= r_in || !footprint.outside(q)) {
       // Over the part: its top when the part is buried (paper footnote), else powder on or in it.
       if (p.z() >= out.h_max - xi && p.z() <= out.h_max + config.cover_margin) out.part.push_back(p);
       continue;
@@ -163,17 +171,28 @@ ProgressEstimate estimateProgress(const Cloud& cad_in_cell, const Cloud& scan, d
   };
   if (candidates.size() < static_cast<std::size_t>(config.min_band_points)) return noContour(candidates.size());
 
-  // 5. H_pow: mean band height without height outliers (median / MAD), and, unless the part is
-  // buried, without points above the CAD top (the authors' rule; it drops the nozzle and arm).
+  // 5. H_pow: mean band height. The part is buried when the bulk of the band (its lower quartile)
+  // is above H_max; otherwise points above the CAD top are dropped first (the authors' rule: it
+  // drops the nozzle, the arm, and part points a wrong pose puts in the band). Then height outliers
+  // are dropped by median / MAD.
   std::vector<double> z;
   z.reserve(candidates.size());
   for (const Point& p : candidates) z.push_back(p.z());
-  const double med = median(z);
+  out.covered = quantile(z, 0.25) >= out.h_max;
+  if (!out.covered) {
+    z.clear();
+    for (const Point& p : candidates)
+      if (p.z() <= out.h_max + config.top_margin) z.push_back(p.z());
+    if (z.size() < static_cast<std::size_t>(config.min_band_points)) {
+      out.band_outliers = candidates.size() - z.size();
+      return noContour(z.size());
+    }
+  }
+  const double med = quantile(z, 0.5);
   for (double& v : z) v = std::abs(v - med);
-  const double mad = median(z);
+  const double mad = quantile(z, 0.5);
   const double keep = config.outlier_mad_k > 0 ? std::max(config.outlier_mad_k * 1.4826 * mad, config.outlier_floor)
                                                : std::numeric_limits<double>::infinity();
-  out.covered = med >= out.h_max;
   double sum = 0;
   for (const Point& p : candidates) {
     const bool inlier = std::abs(p.z() - med) <= keep && (out.covered || p.z() <= out.h_max + config.top_margin);
