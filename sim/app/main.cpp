@@ -1,0 +1,211 @@
+// depowder-sim: the simulated cell. Steps the world at a fixed rate, publishes DEPTH_<CAM>
+// per camera at its rate, SIM_TRUTH and HEARTBEAT. The library (depowder/sim) does the
+// work; this file is configuration, the clock and the bus.
+#include <chrono>
+#include <cstring>
+#include <iostream>
+#include <thread>
+
+#include "depowder/depth_image_t.hpp"
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/node/heartbeat.hpp"
+#include "depowder/node/shutdown.hpp"
+#include "depowder/sim_truth_t.hpp"
+#include "setup.hpp"
+
+using namespace depowder;
+using namespace depowder::sim;
+
+namespace {
+
+int usage(const std::string& error = "") {
+  if (!error.empty()) std::cerr << "depowder-sim: " << error << "\n";
+  std::cerr << "usage: depowder-sim [--config FILE] [--scenario FILE] [--seed N] [--duration S] [--realtime|--fast]\n"
+               "                    [--url URL] [--prefix P]\n"
+               "  The simulated cell: publishes DEPTH_<CAM> (depth_image_t) per camera at its rate, SIM_TRUTH\n"
+               "  (sim_truth_t) and HEARTBEAT.\n"
+               "  --config FILE    cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); --cell is the same\n"
+               "  --scenario FILE  a full cell file used instead, or a file with only a `sim:` section that\n"
+               "                   replaces the cell's (config/scenarios/)\n"
+               "  --seed N         noise seed (overrides sim.seed)\n"
+               "  --duration S     stop after S simulated seconds (default: run until SIGINT/SIGTERM)\n"
+               "  --realtime       pace simulated time to the wall clock; utime = wall clock (default)\n"
+               "  --fast           as fast as possible; utime = simulated time (microseconds from 0)\n"
+               "  --url URL        LCM URL (overrides lcm.url); --prefix P: channel prefix (overrides lcm.prefix)\n";
+  return error.empty() ? 0 : 2;
+}
+
+depth_image_t toMsg(const DepthImage& img, std::int64_t utime) {
+  depth_image_t m;
+  m.utime = utime;
+  m.frame = img.frame;
+  m.camera = img.camera;
+  m.width = img.width;
+  m.height = img.height;
+  m.fx = img.fx;
+  m.fy = img.fy;
+  m.cx = img.cx;
+  m.cy = img.cy;
+  m.min_range = static_cast<float>(img.min_range);
+  m.max_range = static_cast<float>(img.max_range);
+  m.T_cell_camera = node::toMsg(img.T_cell_camera);
+  m.depth_unit = static_cast<float>(img.depth_unit);
+  m.num_bytes = static_cast<std::int32_t>(img.depth.size() * 2);
+  m.data.resize(m.num_bytes);
+  for (std::size_t i = 0; i < img.depth.size(); ++i) {  // little-endian on every host
+    m.data[2 * i] = static_cast<std::uint8_t>(img.depth[i] & 0xFF);
+    m.data[2 * i + 1] = static_cast<std::uint8_t>(img.depth[i] >> 8);
+  }
+  return m;
+}
+
+sim_truth_t toMsg(const Truth& t, std::int64_t utime) {
+  sim_truth_t m;
+  m.utime = utime;
+  for (const PartTruth& p : t.parts) {
+    part_truth_t q;
+    q.part = p.name;
+    q.T_cell_part = node::toMsg(p.T_cell_part);
+    q.eta = p.eta;
+    q.nozzle_contact = p.nozzle_contact;
+    q.speed = p.speed;
+    m.parts.push_back(q);
+  }
+  m.num_parts = static_cast<std::int32_t>(m.parts.size());
+  m.T_cell_nozzle = node::toMsg(t.T_cell_nozzle);
+  m.tool = static_cast<std::int8_t>(t.tool);
+  m.powder_removed_m3 = t.powder_removed_m3;
+  m.contact_count = t.contact_count;
+  return m;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string config_path = node::defaultCellPath(), scenario_path, url, prefix;
+  bool have_url = false, have_prefix = false, fast = false;
+  long long seed = -1;
+  double duration = 0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") return usage();
+    if (a == "--fast" || a == "--realtime") {
+      fast = a == "--fast";
+      continue;
+    }
+    if (a != "--config" && a != "--cell" && a != "--scenario" && a != "--seed" && a != "--duration" && a != "--url" &&
+        a != "--prefix")
+      return usage("unknown option " + a);
+    if (i + 1 >= argc) return usage("missing value after " + a);
+    const std::string v = argv[++i];
+    try {
+      if (a == "--config" || a == "--cell") config_path = v;
+      if (a == "--scenario") scenario_path = v;
+      if (a == "--url") url = v, have_url = true;
+      if (a == "--prefix") prefix = v, have_prefix = true;
+      std::size_t used = 0;
+      if (a == "--seed" && ((seed = std::stoll(v, &used)) < 0 || seed > 0xFFFFFFFFll || used != v.size()))
+        return usage("--seed must be an integer in [0, 4294967295]");
+      if (a == "--duration" && (!((duration = std::stod(v, &used)) >= 0) || used != v.size()))
+        return usage("--duration must be a number of seconds >= 0");
+    } catch (const std::exception&) {
+      return usage("bad value '" + v + "' for " + a);
+    }
+  }
+
+  try {
+    // 1. Configuration and the world.
+    SimSetup setup = loadSimSetup(config_path, scenario_path);
+    if (seed >= 0) setup.seed = static_cast<std::uint32_t>(seed);
+    std::unique_ptr<World> world = makeWorld(setup);
+    NozzleScript script(setup.script, setup.script_loop);
+    ArmSource* arm = &script;  // the b-CAP controller emulator replaces this once it exists
+
+    // 2. Bus and heartbeat.
+    node::installShutdownHandlers();
+    node::Bus bus(have_url ? url : setup.lcm.url, have_prefix ? prefix : setup.lcm.prefix);
+    node::Heartbeat heartbeat(bus, "depowder-sim");
+    heartbeat.setState(heartbeat_t::RUNNING);
+    heartbeat.publish();
+    std::cout << "depowder-sim: " << world->partCount() << " parts, " << world->cameras().size() << " cameras, "
+              << world->powder().nx() << "x" << world->powder().ny() << " powder cells, seed " << setup.seed << ", "
+              << (fast ? "fast" : "real time") << ", cell " << setup.cell_file << std::endl;
+
+    // 3. Main loop: one fixed step at a time; frames and truth fall on multiples of their periods.
+    const double dt = 1.0 / setup.step_hz;
+    const std::int64_t start_utime = fast ? 0 : node::nowUtime();
+    const auto start_wall = std::chrono::steady_clock::now();
+    auto utimeAt = [&](double t) { return start_utime + static_cast<std::int64_t>(std::llround(t * 1e6)); };
+    std::vector<std::int64_t> frames_due(world->cameras().size(), 1);  // frame k at k / rate (from one period)
+    std::int64_t truth_due = 1;
+    double render_ms = 0, step_ms = 0, lag_s = 0;
+    std::int64_t frames = 0;
+    for (std::int64_t k = 1; !node::shutdownRequested(); ++k) {
+      const double t = k * dt;
+      if (duration > 0 && t > duration + 1e-9) break;
+
+      // 3a. The arm: one call per step (scripted nozzle now, the b-CAP emulator later).
+      const ArmState state = arm->update(t);
+      if (state.nozzle_present)
+        world->setNozzle(state.T_cell_nozzle, state.tool);
+      else
+        world->removeNozzle();
+      if (!state.T_cell_links.empty()) world->setArmLinkPoses(state.T_cell_links);
+
+      // 3b. Physics of the powder and contacts.
+      const auto s0 = std::chrono::steady_clock::now();
+      world->step(dt);
+      step_ms = 0.95 * step_ms +
+                0.05 * std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s0).count();
+
+      // 3c. Pacing: in real time, publish no earlier than the wall clock reaches t.
+      if (!fast) {
+        const auto due = start_wall + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                          std::chrono::duration<double>(t));
+        const auto now = std::chrono::steady_clock::now();
+        lag_s = std::chrono::duration<double>(now - due).count();
+        if (now < due) std::this_thread::sleep_until(due);
+      }
+
+      // 3d. Cameras whose next frame time has come.
+      for (std::size_t c = 0; c < frames_due.size(); ++c) {
+        const double rate = world->cameras()[c].rate_hz;
+        if (t + 1e-9 < frames_due[c] / rate) continue;
+        while (frames_due[c] / rate <= t + 1e-9) ++frames_due[c];
+        const auto r0 = std::chrono::steady_clock::now();
+        const DepthImage img = world->render(c);
+        render_ms = 0.95 * render_ms +
+                    0.05 * std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - r0).count();
+        bus.publish("DEPTH_" + img.camera, toMsg(img, utimeAt(t)));
+        ++frames;
+      }
+
+      // 3e. Ground truth (evaluation only).
+      if (t + 1e-9 >= truth_due / setup.truth_hz) {
+        while (truth_due / setup.truth_hz <= t + 1e-9) ++truth_due;
+        bus.publish("SIM_TRUTH", toMsg(world->truth(), utimeAt(t)));
+      }
+
+      // 3f. Heartbeat.
+      for (const std::string& e : bus.takeErrors()) std::cerr << "depowder-sim: " << e << std::endl;
+      heartbeat.setStat("sim_time_s", t);
+      heartbeat.setStat("frames", static_cast<double>(frames));
+      heartbeat.setStat("render_ms", render_ms);
+      heartbeat.setStat("step_ms", step_ms);
+      heartbeat.setStat("lag_s", lag_s);
+      heartbeat.setStat("powder_removed_cm3", world->truth().powder_removed_m3 * 1e6);
+      heartbeat.setState(!fast && lag_s > 0.25 ? heartbeat_t::DEGRADED : heartbeat_t::RUNNING,
+                         !fast && lag_s > 0.25 ? "behind real time by " + std::to_string(lag_s) + " s" : "");
+      heartbeat.tick();
+    }
+    heartbeat.setState(heartbeat_t::STOPPING);
+    heartbeat.publish();
+    std::cout << "depowder-sim: stopped at t = " << world->time() << " s, " << frames << " frames" << std::endl;
+  } catch (const std::exception& e) {
+    std::cerr << "depowder-sim: " << e.what() << std::endl;
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,45 @@
+// depowder-sim's configuration: the cell YAML (box, cameras, parts) plus its `sim`
+// section, read into the library's plain structs. Executables, tests and benchmarks
+// share this; the library itself never sees YAML.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "depowder/node/cell.hpp"
+#include "depowder/sim/script.hpp"
+#include "depowder/sim/world.hpp"
+
+namespace depowder::sim {
+
+struct SimSetup {
+  std::string cell_file;  ///< the cell file the box, cameras and parts came from
+  std::string sim_file;   ///< the file the sim section came from (the cell file or a scenario overlay)
+  node::LcmConfig lcm;
+  SimConfig config;
+  BoxGeometry box;
+  std::vector<PartSpec> parts;
+  std::vector<CameraModel> cameras;
+  std::uint32_t seed = 1;       ///< noise seed
+  double step_hz = 120;         ///< world steps per simulated second
+  double truth_hz = 30;         ///< SIM_TRUTH messages per simulated second
+  std::string visibility_part;  ///< if set: dig around this part to visibility_eta at the start
+  double visibility_eta = 0;
+  std::string nozzle_mesh;  ///< if set: this mesh replaces the cylinder (loaded at run time)
+  double nozzle_mesh_scale = 0.001;
+  Pose T_nozzle_mesh = Pose::Identity();
+  std::vector<ScriptSegment> script;
+  bool script_loop = true;
+};
+
+/// Reads `cell_path`; `scenario_path` (optional) is either a full cell file used instead, or a file
+/// holding only a `sim:` section that replaces the cell's. Loads the part meshes. Throws
+/// node::ConfigError (file, key, range) or MeshError (file).
+SimSetup loadSimSetup(const std::string& cell_path, const std::string& scenario_path = "");
+
+/// The world of a setup, with its start-up visibility and nozzle mesh applied.
+std::unique_ptr<World> makeWorld(const SimSetup& setup);
+
+}  // namespace depowder::sim

@@ -1,0 +1,45 @@
+#include "depowder/sim/camera.hpp"
+
+#include <cmath>
+
+namespace depowder::sim {
+
+CameraModel CameraModel::fromFov(std::string name, int width, int height, double fov_h_deg, double fov_v_deg,
+                                 const Pose& T_cell_camera) {
+  CameraModel c;
+  c.name = std::move(name);
+  c.width = width;
+  c.height = height;
+  c.fx = 0.5 * width / std::tan(0.5 * fov_h_deg * M_PI / 180.0);
+  c.fy = 0.5 * height / std::tan(0.5 * fov_v_deg * M_PI / 180.0);
+  c.cx = 0.5 * (width - 1);
+  c.cy = 0.5 * (height - 1);
+  c.T_cell_camera = T_cell_camera;
+  return c;
+}
+
+Pose cameraLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - position).normalized();
+  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
+  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();  // straight down or up
+  x.normalize();
+  Pose T = Pose::Identity();
+  T.linear() << x, z.cross(x), z;
+  T.translation() = position;
+  return T;
+}
+
+Point DepthImage::point(int u, int v) const {
+  const double z = metres(u, v);
+  return {(u - cx) / fx * z, (v - cy) / fy * z, z};
+}
+
+Cloud DepthImage::cellCloud() const {
+  Cloud cloud;
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u)
+      if (depth[static_cast<std::size_t>(v) * width + u] != 0) cloud.push_back(T_cell_camera * point(u, v));
+  return cloud;
+}
+
+}  // namespace depowder::sim
