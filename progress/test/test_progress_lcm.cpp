@@ -1,0 +1,139 @@
+// depowder-progress as a process, over udpm: run by ctest inside a private network namespace
+// (test/netns-run), so its multicast never leaves the namespace. Frames in, PROGRESS out with
+// the frame's utime; garbage and invalid poses are counted and the process keeps running.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <limits>
+
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/part_pose_t.hpp"
+#include "depowder/progress_t.hpp"
+#include "scenes.hpp"
+
+namespace depowder::progress {
+namespace {
+
+const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+Cloud cubeScene(double h) {
+  Cloud scan =
+      test::powderPlane(h, 0.15, 0.0025, [](double x, double y) { return std::abs(x) <= 0.03 && std::abs(y) <= 0.03; });
+  for (const Point& p : test::boxSurface({-0.03, -0.03, 0.02}, {0.03, 0.03, 0.08}, 0.003))
+    if (p.z() >= h) scan.push_back(p);
+  return scan;
+}
+
+part_pose_t poseMsg(std::int64_t utime, const Pose& pose) {
+  part_pose_t m;
+  m.utime = utime;
+  m.part = "cube";
+  m.T_cell_part = node::toMsg(pose);
+  m.template_size = 0;
+  return m;
+}
+
+class ProgressProcess : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char dir[] = "/tmp/depowder_progress_lcm_XXXXXX";
+    ASSERT_NE(mkdtemp(dir), nullptr);
+    dir_ = dir;
+    const std::string cell = dir_ + "/cell.yaml";
+    std::ofstream(cell) << "parts:\n  - name: cube\n    mesh: " << DEPOWDER_SOURCE_DIR
+                        << "/config/parts/cube.stl\n    xi: 0.01\n"
+                        << "    initial_pose: {xyz: [0, 0, 0.05], rpy_deg: [0, 0, 0]}\n"
+                        << "progress: {pose_wait: 0.1, heartbeat_period: 0.2}\n";
+    prefix_ = "PROGRESS_TEST_" + std::to_string(getpid()) + "_";
+    child_ = fork();
+    if (child_ == 0) {
+      const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-progress";
+      execl(exe.c_str(), "depowder-progress", "--cell", cell.c_str(), "--url", kUrl, "--prefix", prefix_.c_str(),
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    ASSERT_GT(child_, 0);
+  }
+  void TearDown() override {
+    if (child_ > 0) {
+      kill(child_, SIGKILL);
+      waitpid(child_, nullptr, 0);
+    }
+    std::system(("rm -rf '" + dir_ + "'").c_str());
+  }
+  /// Spins `bus` until `done()` or `seconds` pass.
+  static bool spinUntil(node::Bus& bus, const std::function<bool()>& done, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (!done() && std::chrono::steady_clock::now() < end) bus.spinOnce(20);
+    return done();
+  }
+
+  std::string dir_, prefix_;
+  pid_t child_ = -1;
+};
+
+TEST_F(ProgressProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
+  node::Bus bus(kUrl, prefix_);
+  std::vector<progress_t> got;
+  heartbeat_t last_heartbeat;
+  int heartbeats = 0;
+  bus.subscribe<progress_t>("PROGRESS", [&](const progress_t& m, const std::string&) { got.push_back(m); });
+  bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
+    if (h.process == "depowder-progress") last_heartbeat = h, ++heartbeats;
+  });
+  ASSERT_TRUE(spinUntil(
+      bus, [&] { return heartbeats > 0; }, 10))
+      << "no heartbeat from depowder-progress";
+
+  // 1. A frame and its pose: one PROGRESS with the frame's utime and Eq. 2's value.
+  const Pose init = makePoseRpy({0, 0, 0.05}, 0, 0, 0);
+  bus.publish("POINTS", node::encodeCloud(cubeScene(0.05), 1000));
+  bus.publish("PART_POSE", poseMsg(1000, init));
+  ASSERT_TRUE(spinUntil(
+      bus, [&] { return !got.empty(); }, 5));
+  EXPECT_EQ(got[0].utime, 1000);
+  EXPECT_EQ(got[0].part, "cube");
+  EXPECT_EQ(got[0].status, +progress_t::OK) << got[0].status_reason;
+  EXPECT_NEAR(got[0].eta, 0.5, 0.01);
+  EXPECT_GT(got[0].num_contour, 20);
+
+  // 2. Garbage on POINTS, a pose with a NaN quaternion: counted, nothing published for them.
+  bus.publishRaw("POINTS", "not a cloud", 11);
+  part_pose_t bad = poseMsg(2000, init);
+  bad.T_cell_part.orientation[1] = std::numeric_limits<double>::quiet_NaN();
+  bus.publish("PART_POSE", bad);
+
+  // 3. A frame 20 s later with no pose: NO_POSE after pose_wait, naming the cause.
+  bus.publish("POINTS", node::encodeCloud(cubeScene(0.05), 20'000'000));
+  ASSERT_TRUE(spinUntil(
+      bus, [&] { return got.size() >= 2; }, 5));
+  EXPECT_EQ(got[1].utime, 20'000'000);
+  EXPECT_EQ(got[1].status, +progress_t::NO_POSE);
+  EXPECT_NE(got[1].status_reason.find("pose_staleness"), std::string::npos) << got[1].status_reason;
+  const int before = heartbeats;
+  ASSERT_TRUE(spinUntil(
+      bus, [&] { return heartbeats >= before + 2; }, 5));
+  EXPECT_GE(last_heartbeat.decode_errors, 1);
+  EXPECT_EQ(last_heartbeat.state, +heartbeat_t::DEGRADED);
+  EXPECT_NE(last_heartbeat.state_reason.find("cube"), std::string::npos) << last_heartbeat.state_reason;
+
+  // 4. SIGTERM: a clean exit.
+  kill(child_, SIGTERM);
+  int status = 0;
+  ASSERT_EQ(waitpid(child_, &status, 0), child_);
+  child_ = -1;
+  EXPECT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+}  // namespace
+}  // namespace depowder::progress
