@@ -73,6 +73,23 @@ Pose nozzleShapePose(const Pose& T_cell_nozzle, const NozzleConfig& nozzle) {
   return T_cell_nozzle * T_nozzle_shape;
 }
 
+/// A link capsule of the arm: its pose in the link frame and three grown copies.
+struct ArmCapsule {
+  int link = 0;
+  std::string name;
+  Pose T_link_shape = Pose::Identity();  // capsule axis along z, centred
+  std::shared_ptr<FclGeometry> fixed, tracked, lost;
+};
+
+Pose segmentPose(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1) {
+  Pose T = Pose::Identity();
+  T.translation() = 0.5 * (p0 + p1);
+  const Eigen::Vector3d d = p1 - p0;
+  if (d.norm() > 1e-12)
+    T.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), d.normalized()).toRotationMatrix();
+  return T;
+}
+
 struct Static {
   std::string name;
   FclObject object;
@@ -93,6 +110,34 @@ struct CollisionWorld::Impl {
   double powder_top = 0;
   // The nozzle grown for static obstacles, tracked parts and lost parts.
   std::shared_ptr<FclGeometry> nozzle_static, nozzle_tracked, nozzle_lost;
+  std::shared_ptr<const robot::ArmConfig> arm;
+  std::vector<ArmCapsule> capsules;
+
+  Contact armContact(const robot::Joints& q, bool include_powder) const {
+    if (!robot::withinLimits(*arm, q)) return {true, "joint limits"};
+    const std::vector<Pose> links = robot::linkPoses(q);
+    std::vector<FclObject> fixed;
+    fixed.reserve(capsules.size());
+    for (const ArmCapsule& c : capsules) {
+      const Pose T = arm->T_cell_base * links[c.link] * c.T_link_shape;
+      fixed.push_back(makeObject(c.fixed, T));
+      for (const Static& s : statics)
+        if (collide(fixed.back(), s.object)) return {true, c.name + "-" + s.name};
+      if (include_powder && powder && collide(fixed.back(), *powder)) return {true, c.name + "-powder"};
+      for (std::size_t i = 0; i < parts.size(); ++i) {
+        if (states[i] == PartState::kIgnored) continue;
+        const FclObject grown = makeObject(states[i] == PartState::kLost ? c.lost : c.tracked, T);
+        if (collide(grown, part_objects[i])) return {true, c.name + "-part:" + parts[i]->name()};
+      }
+    }
+    const Pose T_cell_nozzle = arm->T_cell_base * links[6] * arm->T_flange_nozzle;
+    if (Contact c = nozzleContact(T_cell_nozzle, include_powder)) return c;
+    // Self collision: the nozzle against the links up to the elbow (the wrist carries it).
+    const FclObject n = makeObject(nozzle_static, nozzleShapePose(T_cell_nozzle, nozzle));
+    for (std::size_t k = 0; k < capsules.size(); ++k)
+      if (capsules[k].link <= 3 && collide(n, fixed[k])) return {true, "nozzle-" + capsules[k].name};
+    return {};
+  }
 
   Contact nozzleContact(const Pose& T_cell_nozzle, bool include_powder) const {
     const Pose T = nozzleShapePose(T_cell_nozzle, nozzle);
@@ -112,12 +157,27 @@ struct CollisionWorld::Impl {
 };
 
 CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> parts, const Box& box,
-                               const NozzleConfig& nozzle, const CollisionConfig& config)
+                               const NozzleConfig& nozzle, const CollisionConfig& config,
+                               std::shared_ptr<const robot::ArmConfig> arm)
     : impl_(std::make_unique<Impl>()) {
   Impl& w = *impl_;
+  w.arm = std::move(arm);
+  NozzleConfig body = nozzle;
+  if (w.arm) {
+    // The nozzle body reaches at least up to the flange.
+    body.length = std::max(nozzle.length, w.arm->T_flange_nozzle.translation().norm());
+    for (const robot::LinkCapsule& c : robot::linkCapsules(*w.arm)) {
+      if (c.name == "tool") continue;  // modelled by the nozzle cylinder
+      const double len = (c.p1 - c.p0).norm();
+      auto capsule = [&](double m) { return std::make_shared<fcl::Capsuled>(c.radius + m, len); };
+      w.capsules.push_back({c.link, c.name, segmentPose(c.p0, c.p1), capsule(config.arm_margin),
+                            capsule(config.arm_margin + config.tracking_margin),
+                            capsule(config.arm_margin + config.lost_margin)});
+    }
+  }
   w.parts = std::move(parts);
   w.box = box;
-  w.nozzle = nozzle;
+  w.nozzle = body;
   w.config = config;
   for (const auto& p : w.parts) {
     if (!p) throw std::invalid_argument("CollisionWorld: null part");
@@ -140,9 +200,9 @@ CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> par
   add("wall:+y", {s.x() + 2 * t, t, h}, {0, 0.5 * (s.y() + t), zc});
   add("wall:-y", {s.x() + 2 * t, t, h}, {0, -0.5 * (s.y() + t), zc});
   add("floor", {s.x() + 2 * t, s.y() + 2 * t, t}, {0, 0, -0.5 * t});
-  w.nozzle_static = nozzleShape(nozzle, nozzle.margin);
-  w.nozzle_tracked = nozzleShape(nozzle, nozzle.margin + config.tracking_margin);
-  w.nozzle_lost = nozzleShape(nozzle, nozzle.margin + config.lost_margin);
+  w.nozzle_static = nozzleShape(body, body.margin);
+  w.nozzle_tracked = nozzleShape(body, body.margin + config.tracking_margin);
+  w.nozzle_lost = nozzleShape(body, body.margin + config.lost_margin);
 }
 
 CollisionWorld::~CollisionWorld() = default;
@@ -177,6 +237,18 @@ double CollisionWorld::powderTop() const { return impl_->powder_top; }
 
 Contact CollisionWorld::checkNozzle(const Pose& T_cell_nozzle, bool include_powder) const {
   return impl_->nozzleContact(T_cell_nozzle, include_powder);
+}
+
+Contact CollisionWorld::checkArm(const robot::Joints& q, bool include_powder) const {
+  if (!impl_->arm) throw std::logic_error("CollisionWorld::checkArm: no arm model");
+  return impl_->armContact(q, include_powder);
+}
+
+bool CollisionWorld::hasArm() const { return impl_->arm != nullptr; }
+
+const robot::ArmConfig& CollisionWorld::arm() const {
+  if (!impl_->arm) throw std::logic_error("CollisionWorld::arm: no arm model");
+  return *impl_->arm;
 }
 
 const Box& CollisionWorld::box() const { return impl_->box; }

@@ -3,7 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <unordered_map>
+
+#include "axis_distance.hpp"
 
 namespace depowder::planner {
 
@@ -121,8 +122,7 @@ Loop2 removeFolds(const Loop2& loop, const V2& centre) {
 /// converges where plain Newton steps would oscillate on sloped surfaces; when the iterations
 /// run out it keeps the bracket end on the safe (outer) side.
 struct Pusher {
-  const PartShape& part;
-  const Pose& T_cell_part;
+  const AxisDistanceField& field;
   double eval_z;
   double axis_length;
   double standoff;
@@ -130,22 +130,24 @@ struct Pusher {
   V2 centre;
   int queries = 0;
 
-  double distanceAt(const V2& p, PartShape::AxisDistance* out = nullptr) {
+  double distanceAt(const V2& p, AxisDistanceField::Result* out = nullptr) {
     ++queries;
-    const auto d = part.axisDistance(T_cell_part, Point(p.x(), p.y(), eval_z), axis_length);
+    const auto d = field.query(p.x(), p.y(), eval_z, eval_z + axis_length, 3 * standoff);
     if (out) *out = d;
     return d.distance;
   }
 
   /// Returns the final distance.
   double push(V2& p, int max_iterations) {
-    PartShape::AxisDistance d;
+    AxisDistanceField::Result d;
     const double f0 = distanceAt(p, &d) - standoff;
     if (std::abs(f0) <= tolerance) return d.distance;
     V2 dir = p - centre;
     dir = dir.norm() > 1e-9 ? V2(dir.normalized()) : V2(1, 0);
     double step = standoff;  // the axis touches the part: go straight out
-    if (d.distance > 1e-6) {
+    if (d.cut_off) {
+      step = -f0;  // far away: head straight in
+    } else if (d.distance > 1e-6) {
       const Point v = d.on_axis - d.on_part;
       const V2 h(v.x(), v.y());
       double cosine = 1;
@@ -242,7 +244,8 @@ LoopResult finishLoop(const PartShape& part, const Pose& T_cell_part, Loop2 seed
   r.source = source;
   r.height = height;
   const double top = std::max(height, eval_z) + config.nozzle.length;
-  Pusher pusher{part, T_cell_part, eval_z, top - eval_z, vc.standoff, vc.standoff_tolerance, centre};
+  const AxisDistanceField field(part.mesh(), T_cell_part);
+  Pusher pusher{field, eval_z, top - eval_z, vc.standoff, vc.standoff_tolerance, centre};
 
   // Push, drop folds, resample (twice: the second pass fixes the spacing the first changed),
   // then a last push that also measures every waypoint's stand-off.

@@ -14,6 +14,7 @@
 #include "depowder/geometry.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/planner/config.hpp"
+#include "depowder/robot/kinematics.hpp"
 
 namespace depowder::planner {
 
@@ -63,8 +64,11 @@ struct Contact {
 
 class CollisionWorld {
  public:
+  /// `arm` may be null: then only the nozzle can be checked (checkArm needs it). The arm's
+  /// link capsules come from robot::linkCapsules; its "tool" capsule is replaced by the
+  /// nozzle cylinder of `nozzle` (grown to reach the flange if the tool offset is longer).
   CollisionWorld(std::vector<std::shared_ptr<const PartShape>> parts, const Box& box, const NozzleConfig& nozzle,
-                 const CollisionConfig& config);
+                 const CollisionConfig& config, std::shared_ptr<const robot::ArmConfig> arm = nullptr);
   ~CollisionWorld();
   CollisionWorld(const CollisionWorld&) = delete;
   CollisionWorld& operator=(const CollisionWorld&) = delete;
@@ -83,6 +87,14 @@ class CollisionWorld {
 
   /// The nozzle alone at T_cell_nozzle.
   Contact checkNozzle(const Pose& T_cell_nozzle, bool include_powder = false) const;
+
+  /// Links and nozzle at joint angles q: joint limits, links against box, powder and parts
+  /// (margin arm_margin, plus the part's margin), the nozzle as in checkNozzle, and the
+  /// nozzle against the base, turret, upper arm and elbow (self collision).
+  Contact checkArm(const robot::Joints& q, bool include_powder = false) const;
+  bool hasArm() const;
+  /// The arm model (throws std::logic_error if there is none).
+  const robot::ArmConfig& arm() const;
 
   const Box& box() const;
   const NozzleConfig& nozzle() const;

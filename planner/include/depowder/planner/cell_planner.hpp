@@ -1,0 +1,129 @@
+// The planner of a whole cell: keeps the latest pose, progress and arm state, decides when
+// to plan (pose moved, phase changed, the cycle finished) and which part is next (one cycle
+// per part in turn, as in the paper's two-cube demo; DONE parts are finished, LOST parts
+// skipped and reported but still avoided), and holds when its inputs are missing or stale.
+// The inputs are the LCM messages' contents; the node converts, this class validates.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "depowder/planner/collision.hpp"
+#include "depowder/planner/config.hpp"
+#include "depowder/planner/plan.hpp"
+#include "depowder/robot/kinematics.hpp"
+
+namespace depowder::planner {
+
+/// Values of part_pose_t's status.
+enum class TrackStatus : std::int8_t { kWaiting = 0, kTracking = 1, kDegraded = 2, kLost = 3 };
+/// Values of progress_t's status.
+enum class ProgressStatus : std::int8_t { kOk = 0, kNoPose = 1, kNoPoints = 2, kNoContour = 3 };
+const char* toString(ProgressStatus s);
+
+struct PoseInput {
+  std::string part;
+  std::int64_t utime = 0;
+  Pose T_cell_part = Pose::Identity();
+  TrackStatus status = TrackStatus::kTracking;
+  std::string status_reason;
+};
+
+struct ProgressInput {
+  std::string part;
+  std::int64_t utime = 0;
+  Phase phase = Phase::kVacuumBuried;
+  ProgressStatus status = ProgressStatus::kOk;
+  std::string status_reason;
+  double eta = 0;    ///< 0..1
+  double h_pow = 0;  ///< m
+  double h_max = 0;  ///< m
+  double h_min = 0;  ///< m
+  Cloud contour;     ///< cell frame
+};
+
+struct RobotInput {
+  std::int64_t utime = 0;
+  robot::Joints q{};
+  std::int64_t plan_id = -1;  ///< plan being executed (-1: none)
+  int waypoint_index = 0;     ///< next waypoint of that plan
+  bool idle = false;          ///< the driver has no plan (MODE_IDLE)
+};
+
+enum class InputStatus { kAccepted, kUnknownPart, kInvalidPose, kInvalidValue, kInvalidContour, kOutOfOrder };
+const char* toString(InputStatus s);
+
+struct InputResult {
+  InputStatus status = InputStatus::kAccepted;
+  std::string reason;
+  bool ok() const { return status == InputStatus::kAccepted; }
+};
+
+struct PartSpec {
+  std::shared_ptr<const PartShape> shape;
+  Pose T_cell_part_init = Pose::Identity();  ///< the printer's build layout (phase 1 pose)
+};
+
+/// One part as the planner sees it (for the heartbeat and the log).
+struct PartReport {
+  std::string name;
+  Phase phase = Phase::kNone;  ///< from PROGRESS (kNone before the first)
+  bool lost = false;           ///< the tracker reports LOST: skipped, avoided with lost_margin
+  bool done = false;
+  int cycles = 0;    ///< cycles planned on it
+  std::string note;  ///< the last problem, e.g. "skipped: lost (fit failed)"
+};
+
+class CellPlanner {
+ public:
+  CellPlanner(std::vector<PartSpec> parts, const Box& box, std::shared_ptr<const robot::ArmConfig> arm,
+              const PlannerConfig& config = {});
+  ~CellPlanner();
+
+  InputResult onPose(const PoseInput& in);
+  InputResult onProgress(const ProgressInput& in);
+  InputResult onRobot(const RobotInput& in);
+
+  /// Decides. Returns a plan to publish, or nothing when the current plan stands. A hold
+  /// (no waypoints) is returned once per distinct reason, not on every call.
+  std::optional<Plan> step();
+
+  const std::vector<PartReport>& parts() const { return reports_; }
+  /// True once every part is DONE (and the home move was planned).
+  bool finished() const { return finished_; }
+  const CollisionWorld& world() const;
+
+ private:
+  struct PartState;
+  std::optional<Plan> hold(const std::string& reason, std::int64_t utime);
+  std::optional<Plan> home(const std::string& why, std::int64_t utime);
+  std::optional<Plan> emit(Plan plan);
+  bool eligible(int i) const;
+  bool cycleFinished() const;
+  void updateWorld();
+
+  PlannerConfig config_;
+  std::shared_ptr<const robot::ArmConfig> arm_;
+  std::unique_ptr<CollisionWorld> world_;
+  std::vector<PartState> states_;
+  std::vector<PartReport> reports_;
+  std::optional<RobotInput> robot_;
+  std::int64_t newest_utime_ = 0;
+  std::int64_t next_plan_id_ = 1;
+  // The plan being executed.
+  std::int64_t active_id_ = 0;
+  std::size_t active_size_ = 0;
+  int active_part_ = -1;
+  Phase active_phase_ = Phase::kNone;
+  Pose active_pose_ = Pose::Identity();
+  double active_powder_ = 0;
+  bool active_is_cycle_ = false;
+  std::string last_hold_;
+  std::string home_reason_;  ///< why the last home move was planned ("" if none since the last cycle)
+  bool finished_ = false;
+};
+
+}  // namespace depowder::planner

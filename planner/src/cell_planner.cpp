@@ -1,0 +1,306 @@
+#include "depowder/planner/cell_planner.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace depowder::planner {
+
+const char* toString(ProgressStatus s) {
+  switch (s) {
+    case ProgressStatus::kOk:
+      return "OK";
+    case ProgressStatus::kNoPose:
+      return "NO_POSE";
+    case ProgressStatus::kNoPoints:
+      return "NO_POINTS";
+    case ProgressStatus::kNoContour:
+      return "NO_CONTOUR";
+  }
+  return "?";
+}
+
+const char* toString(InputStatus s) {
+  switch (s) {
+    case InputStatus::kAccepted:
+      return "ACCEPTED";
+    case InputStatus::kUnknownPart:
+      return "UNKNOWN_PART";
+    case InputStatus::kInvalidPose:
+      return "INVALID_POSE";
+    case InputStatus::kInvalidValue:
+      return "INVALID_VALUE";
+    case InputStatus::kInvalidContour:
+      return "INVALID_CONTOUR";
+    case InputStatus::kOutOfOrder:
+      return "OUT_OF_ORDER";
+  }
+  return "?";
+}
+
+struct CellPlanner::PartState {
+  PartSpec spec;
+  std::optional<PoseInput> pose;
+  std::optional<ProgressInput> progress;
+  double powder = std::nan("");    ///< last h_pow from a progress message with a contour
+  std::int64_t failed_utime = -1;  ///< newest input utime when planning last failed (retry after newer)
+};
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+double seconds(std::int64_t us) { return static_cast<double>(us) * 1e-6; }
+
+}  // namespace
+
+CellPlanner::CellPlanner(std::vector<PartSpec> parts, const Box& box, std::shared_ptr<const robot::ArmConfig> arm,
+                         const PlannerConfig& config)
+    : config_(config), arm_(std::move(arm)) {
+  if (!arm_) throw std::invalid_argument("CellPlanner needs an arm model");
+  std::vector<std::shared_ptr<const PartShape>> shapes;
+  for (PartSpec& p : parts) {
+    if (!p.shape) throw std::invalid_argument("CellPlanner: part without a shape");
+    shapes.push_back(p.shape);
+    PartReport r;
+    r.name = p.shape->name();
+    reports_.push_back(r);
+    PartState s;
+    s.spec = std::move(p);
+    states_.push_back(std::move(s));
+  }
+  world_ = std::make_unique<CollisionWorld>(std::move(shapes), box, config_.nozzle, config_.collision, arm_);
+  updateWorld();
+}
+
+CellPlanner::~CellPlanner() = default;
+
+const CollisionWorld& CellPlanner::world() const { return *world_; }
+
+namespace {
+
+template <class States>
+int findPart(const States& states, const std::string& name) {
+  for (std::size_t i = 0; i < states.size(); ++i)
+    if (states[i].spec.shape->name() == name) return static_cast<int>(i);
+  return -1;
+}
+
+}  // namespace
+
+InputResult CellPlanner::onPose(const PoseInput& in) {
+  const int i = findPart(states_, in.part);
+  if (i < 0) return {InputStatus::kUnknownPart, "PART_POSE for unknown part '" + in.part + "'"};
+  if (!isValidPose(in.T_cell_part, 1e-6))
+    return {InputStatus::kInvalidPose,
+            "PART_POSE of " + in.part + " is not a valid rigid transform (NaN or not orthonormal)"};
+  PartState& s = states_[i];
+  if (s.pose && in.utime < s.pose->utime)
+    return {InputStatus::kOutOfOrder, "PART_POSE of " + in.part + " is older than the last one"};
+  s.pose = in;
+  newest_utime_ = std::max(newest_utime_, in.utime);
+  return {};
+}
+
+InputResult CellPlanner::onProgress(const ProgressInput& in) {
+  const int i = findPart(states_, in.part);
+  if (i < 0) return {InputStatus::kUnknownPart, "PROGRESS for unknown part '" + in.part + "'"};
+  if (!std::isfinite(in.eta) || !std::isfinite(in.h_pow) || !std::isfinite(in.h_max) || !std::isfinite(in.h_min))
+    return {InputStatus::kInvalidValue, "PROGRESS of " + in.part + " has a non-finite eta or height"};
+  const int phase = static_cast<int>(in.phase);
+  if (phase < 1 || phase > 4)
+    return {InputStatus::kInvalidValue, "PROGRESS of " + in.part + " has phase " + std::to_string(phase) + " (1..4)"};
+  for (const Point& p : in.contour)
+    if (!p.allFinite())
+      return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " has a non-finite contour point"};
+  if (in.status == ProgressStatus::kOk && in.contour.size() < 3)
+    return {InputStatus::kInvalidContour,
+            "PROGRESS of " + in.part + " says OK but its contour has " + std::to_string(in.contour.size()) + " points"};
+  PartState& s = states_[i];
+  if (s.progress && in.utime < s.progress->utime)
+    return {InputStatus::kOutOfOrder, "PROGRESS of " + in.part + " is older than the last one"};
+  s.progress = in;
+  if (in.status == ProgressStatus::kOk) s.powder = in.h_pow;
+  newest_utime_ = std::max(newest_utime_, in.utime);
+  return {};
+}
+
+InputResult CellPlanner::onRobot(const RobotInput& in) {
+  for (double v : in.q)
+    if (!std::isfinite(v)) return {InputStatus::kInvalidValue, "ROBOT_STATE has non-finite joints"};
+  robot_ = in;
+  return {};
+}
+
+void CellPlanner::updateWorld() {
+  double powder_top = 0;
+  for (std::size_t i = 0; i < states_.size(); ++i) {
+    const PartState& s = states_[i];
+    PartReport& r = reports_[i];
+    r.phase = s.progress ? s.progress->phase : Phase::kNone;
+    r.done = r.phase == Phase::kDone;
+    r.lost = s.pose && s.pose->status == TrackStatus::kLost;
+    if (r.lost) r.note = "skipped: lost" + (s.pose->status_reason.empty() ? "" : " (" + s.pose->status_reason + ")");
+    // Phase 1 (and before any estimate): the part sits at its printed pose (paper Sec. III-B).
+    const bool tracked = s.pose && r.phase != Phase::kNone && r.phase != Phase::kVacuumBuried;
+    world_->setPart(i, tracked ? s.pose->T_cell_part : s.spec.T_cell_part_init,
+                    r.lost ? planner::PartState::kLost : planner::PartState::kTracked);
+    if (std::isfinite(s.powder)) powder_top = std::max(powder_top, s.powder);
+  }
+  world_->setPowderTop(std::min(powder_top, world_->box().size.z()));
+}
+
+bool CellPlanner::eligible(int i) const {
+  const PartState& s = states_[i];
+  const PartReport& r = reports_[i];
+  if (!s.progress || r.done || r.lost) return false;
+  return s.failed_utime < 0 || s.progress->utime > s.failed_utime;
+}
+
+bool CellPlanner::cycleFinished() const {
+  return robot_ && robot_->plan_id == active_id_ &&
+         (robot_->waypoint_index >= static_cast<int>(active_size_) || robot_->idle);
+}
+
+std::optional<Plan> CellPlanner::emit(Plan plan) {
+  plan.plan_id = next_plan_id_++;
+  active_id_ = plan.plan_id;
+  active_size_ = plan.waypoints.size();
+  if (plan.status != PlanStatus::kHold) last_hold_.clear();
+  return plan;
+}
+
+std::optional<Plan> CellPlanner::hold(const std::string& reason, std::int64_t utime) {
+  active_is_cycle_ = false;
+  if (reason == last_hold_) return std::nullopt;
+  last_hold_ = reason;
+  Plan plan;
+  plan.status = PlanStatus::kHold;
+  plan.reason = reason;
+  plan.utime = utime;
+  return emit(std::move(plan));
+}
+
+std::optional<Plan> CellPlanner::home(const std::string& why, std::int64_t utime) {
+  active_is_cycle_ = false;
+  if (home_reason_ == why) return std::nullopt;
+  home_reason_ = why;
+  const robot::Joints q = robot_ ? robot_->q : arm_->q_home;
+  Plan plan = planHome(*world_, q, config_, why);
+  plan.utime = utime;
+  return emit(std::move(plan));
+}
+
+std::optional<Plan> CellPlanner::step() {
+  updateWorld();
+  // 1. Finished? Every part done: go home once.
+  bool all_done = !states_.empty();
+  for (const PartReport& r : reports_) all_done = all_done && r.done;
+  if (all_done) {
+    finished_ = true;
+    return home("all parts done", newest_utime_);
+  }
+  finished_ = false;
+
+  // 2. Which part: stay on the active one until its cycle finishes, then the others in turn.
+  const bool cycle_done = active_is_cycle_ && cycleFinished();
+  const bool continuing = active_is_cycle_ && !cycle_done && active_part_ >= 0 && eligible(active_part_);
+  std::vector<int> candidates;
+  if (continuing) {
+    candidates.push_back(active_part_);
+  } else {
+    const int n = static_cast<int>(states_.size());
+    for (int k = 1; k <= n; ++k) {
+      const int i = (active_part_ + k + n) % n;
+      if (eligible(i)) candidates.push_back(i);
+    }
+  }
+  if (candidates.empty()) {
+    std::string lost, waiting;
+    for (std::size_t i = 0; i < states_.size(); ++i) {
+      if (reports_[i].lost && !reports_[i].done) lost += (lost.empty() ? "" : ", ") + reports_[i].name;
+      if (!states_[i].progress) waiting += (waiting.empty() ? "" : ", ") + reports_[i].name;
+    }
+    if (!waiting.empty()) return hold("hold: no PROGRESS yet for " + waiting, newest_utime_);
+    if (!lost.empty()) return home("every remaining part is lost: " + lost, newest_utime_);
+    return hold("hold: no part can be planned until new estimates arrive", newest_utime_);
+  }
+
+  std::string first_problem;
+  for (const int part : candidates) {
+    PartState& s = states_[part];
+    PartReport& report = reports_[part];
+    const ProgressInput& progress = *s.progress;
+    const Phase phase = progress.phase;
+
+    // 3. Inputs: phases 2 and 3 need a fresh tracked pose; phase 1 uses the printed pose.
+    std::int64_t utime = progress.utime;
+    Pose T = s.spec.T_cell_part_init;
+    std::string problem;
+    if (phase != Phase::kVacuumBuried) {
+      if (!s.pose) {
+        problem = "hold: no PART_POSE for " + report.name;
+      } else if (const double lag = seconds(newest_utime_ - s.pose->utime); lag > config_.replan.stale_s) {
+        char buf[64];
+        std::snprintf(buf, sizeof(buf), " is stale (%.1f s behind)", lag);
+        problem = "hold: PART_POSE of " + report.name + buf;
+      } else {
+        T = s.pose->T_cell_part;
+        utime = std::max(utime, s.pose->utime);
+      }
+    }
+    if (!problem.empty()) {
+      report.note = problem;
+      if (first_problem.empty()) first_problem = problem;
+      continue;
+    }
+
+    // 4. Plan only when something changed: a finished cycle, a new phase, a moved pose.
+    const bool same = continuing && phase == active_phase_;
+    const bool moved = translationDistance(T, active_pose_) > config_.replan.translation ||
+                       rotationAngle(T.linear(), active_pose_.linear()) > config_.replan.rotation_deg * kPi / 180;
+    if (same && !moved) return std::nullopt;
+
+    // 5. Build the cycle. A pose-triggered regeneration keeps the loop's layer.
+    CycleRequest request;
+    request.part = static_cast<std::size_t>(part);
+    request.phase = phase;
+    request.q_now = robot_ ? robot_->q : arm_->q_home;
+    if (progress.status == ProgressStatus::kOk) {
+      request.contour = progress.contour;
+    } else {
+      request.no_contour = std::string("progress ") + toString(progress.status) +
+                           (progress.status_reason.empty() ? "" : ": " + progress.status_reason);
+    }
+    if (same) {
+      request.powder_height = active_powder_;
+    } else if (std::isfinite(s.powder)) {
+      request.powder_height = s.powder;
+    } else {
+      // No contour height yet: Eq. 2 inverted with the part's heights at this pose.
+      const HeightRange hr = partHeights(*s.spec.shape, T);
+      request.powder_height = hr.max - progress.eta * (hr.max - hr.min);
+      request.no_contour += "; powder height from eta";
+    }
+    Plan plan = planCycle(*world_, request, config_);
+    plan.utime = utime;
+    if (!plan.hasWaypoints()) {
+      s.failed_utime = newest_utime_;
+      report.note = plan.reason;
+      if (first_problem.empty()) first_problem = plan.reason;
+      continue;
+    }
+    if (!same) ++report.cycles;
+    s.failed_utime = -1;
+    report.note.clear();
+    active_part_ = part;
+    active_phase_ = phase;
+    active_pose_ = T;
+    active_powder_ = request.powder_height;
+    active_is_cycle_ = true;
+    home_reason_.clear();
+    return emit(std::move(plan));
+  }
+  return hold(first_problem, newest_utime_);
+}
+
+}  // namespace depowder::planner

@@ -1,0 +1,199 @@
+#include "depowder/planner/plan.hpp"
+
+#include <chrono>
+#include <cstdio>
+
+namespace depowder::planner {
+
+const char* toString(Phase p) {
+  switch (p) {
+    case Phase::kNone:
+      return "none";
+    case Phase::kVacuumBuried:
+      return "vacuum (initial pose)";
+    case Phase::kVacuumTracked:
+      return "vacuum (tracked pose)";
+    case Phase::kAirBlast:
+      return "air blast";
+    case Phase::kDone:
+      return "done";
+  }
+  return "?";
+}
+
+const char* toString(PlanStatus s) {
+  switch (s) {
+    case PlanStatus::kOk:
+      return "OK";
+    case PlanStatus::kHold:
+      return "HOLD";
+    case PlanStatus::kNoPath:
+      return "NO_PATH";
+    case PlanStatus::kTransitionFailed:
+      return "TRANSITION_FAILED";
+    case PlanStatus::kHome:
+      return "HOME";
+  }
+  return "?";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+std::string describe(const TransitionResult& t) {
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "%s, %.0f ms", toString(t.status), t.planning_ms);
+  return buf;
+}
+
+Waypoint here(const robot::ArmConfig& arm, const robot::Joints& q) {
+  Waypoint w;
+  w.T_cell_nozzle = robot::forwardNozzle(arm, q);
+  w.q = q;
+  return w;
+}
+
+}  // namespace
+
+Plan planCycle(const CollisionWorld& world, const CycleRequest& request, const PlannerConfig& config) {
+  const auto t0 = Clock::now();
+  Plan plan;
+  const PartShape& part = world.part(request.part);
+  plan.part = part.name();
+  plan.phase = request.phase;
+  const Pose& T_cell_part = world.partPose(request.part);
+  const robot::ArmConfig& arm = world.arm();
+  const Point nozzle_now = robot::forwardNozzle(arm, request.q_now).translation();
+
+  // 1. The phase's path (tip positions).
+  Cloud tips;
+  Tool tool = Tool::kVacuum;
+  double speed = config.vacuum.speed;
+  PushMode push = PushMode::kOutward;
+  std::string what;
+  if (request.phase == Phase::kVacuumBuried || request.phase == Phase::kVacuumTracked) {
+    LoopResult loop;
+    std::string fallback;
+    if (!request.contour.empty()) {
+      loop = contourLoop(part, T_cell_part, request.contour, request.powder_height, nozzle_now, config);
+      if (!loop.ok()) fallback = loop.reason;
+    } else {
+      fallback = request.no_contour.empty() ? "no contour" : request.no_contour;
+    }
+    if (!loop.ok() && loop.status != PathStatus::kInvalidPose && loop.status != PathStatus::kInvalidHeight)
+      loop = footprintLoop(part, T_cell_part, request.powder_height, nozzle_now, config);
+    if (!loop.ok()) {
+      plan.status = PlanStatus::kNoPath;
+      plan.reason = "hold: no vacuum loop for " + part.name() + ": " + loop.reason;
+      plan.planning_ms = msSince(t0);
+      return plan;
+    }
+    plan.source = loop.source;
+    tips = std::move(loop.tips);
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "%s loop at z %.3f m, stand-off %.1f-%.1f mm", toString(loop.source), loop.height,
+                  1000 * loop.min_standoff, 1000 * loop.max_standoff);
+    what = buf;
+    if (loop.source == LoopSource::kFootprint) what += " (" + fallback + ")";
+  } else if (request.phase == Phase::kAirBlast) {
+    const RasterResult raster = blastRaster(part, T_cell_part, nozzle_now, config);
+    if (!raster.ok()) {
+      plan.status = PlanStatus::kNoPath;
+      plan.reason = "hold: no air-blast raster for " + part.name() + ": " + raster.reason;
+      plan.planning_ms = msSince(t0);
+      return plan;
+    }
+    tips = raster.tips;
+    tool = Tool::kAir;
+    speed = config.blast.speed;
+    push = PushMode::kUp;
+    what = "air-blast raster, " + std::to_string(raster.lines) + " lines";
+  } else {
+    plan.status = PlanStatus::kHold;
+    plan.reason = "hold: nothing to do for " + part.name() + " in phase " + toString(request.phase);
+    plan.planning_ms = msSince(t0);
+    return plan;
+  }
+  plan.path_ms = msSince(t0);
+
+  // 2. IK and collision at every waypoint and edge; cut where an edge cannot be run.
+  const Point centre = T_cell_part.translation();
+  const RefinedPath refined = refinePath(world, tips, tool, speed, push, centre, request.q_now, config);
+  plan.report = refined.report;
+  plan.path_waypoints = static_cast<int>(refined.size());
+  if (refined.pieces.empty()) {
+    plan.status = PlanStatus::kNoPath;
+    plan.reason = "hold: no reachable collision-free waypoint around " + part.name() + ": " + refined.report.summary();
+    plan.planning_ms = msSince(t0);
+    return plan;
+  }
+
+  // 3. Enter the first piece: straight if the nozzle is next to it, else a transition.
+  const Waypoint now = here(arm, request.q_now);
+  const Waypoint& first = refined.pieces.front().front();
+  const double gap = (first.T_cell_nozzle.translation() - now.T_cell_nozzle.translation()).norm();
+  std::string entry = "entered directly";
+  if (gap > config.transition.direct_move || !edgeFree(world, now, first, config)) {
+    TransitionResult t = planTransition(world, request.q_now, first.q, config, request.try_direct);
+    plan.transitions.push_back(t);
+    if (!t.ok()) {
+      plan.status = PlanStatus::kTransitionFailed;
+      plan.reason = "hold: cannot reach " + part.name() + ": " + t.reason;
+      plan.planning_ms = msSince(t0);
+      return plan;
+    }
+    plan.waypoints = pathWaypoints(arm, t.path, config.transition.speed);
+    plan.waypoints.pop_back();  // the path's last state is the first waypoint itself
+    entry = "entry transition " + describe(t);
+  }
+
+  // 4. The pieces, joined by transitions; stop at a gap that cannot be bridged.
+  int joined = 0;
+  std::string stopped;
+  for (std::size_t k = 0; k < refined.pieces.size(); ++k) {
+    if (k > 0) {
+      TransitionResult t = planTransition(world, refined.pieces[k - 1].back().q, refined.pieces[k].front().q, config,
+                                          request.try_direct);
+      plan.transitions.push_back(t);
+      if (!t.ok()) {
+        stopped = ", stopped before piece " + std::to_string(k + 1) + " of " + std::to_string(refined.pieces.size()) +
+                  " (" + t.reason + ")";
+        break;
+      }
+      auto moves = pathWaypoints(arm, t.path, config.transition.speed);
+      moves.pop_back();
+      plan.waypoints.insert(plan.waypoints.end(), moves.begin(), moves.end());
+      ++joined;
+    }
+    plan.waypoints.insert(plan.waypoints.end(), refined.pieces[k].begin(), refined.pieces[k].end());
+  }
+  plan.status = PlanStatus::kOk;
+  plan.reason = what + "; " + refined.report.summary() + "; " + entry;
+  if (joined > 0) plan.reason += "; " + std::to_string(joined) + " transitions between pieces";
+  plan.reason += stopped;
+  plan.planning_ms = msSince(t0);
+  return plan;
+}
+
+Plan planHome(const CollisionWorld& world, const robot::Joints& q_now, const PlannerConfig& config,
+              const std::string& why) {
+  const auto t0 = Clock::now();
+  Plan plan;
+  const robot::ArmConfig& arm = world.arm();
+  TransitionResult t = planTransition(world, q_now, arm.q_home, config);
+  plan.transitions.push_back(t);
+  if (!t.ok()) {
+    plan.status = PlanStatus::kTransitionFailed;
+    plan.reason = "hold: cannot go home (" + why + "): " + t.reason;
+  } else {
+    plan.status = PlanStatus::kHome;
+    plan.waypoints = pathWaypoints(arm, t.path, config.transition.speed);
+    plan.reason = "home: " + why + "; transition " + describe(t);
+  }
+  plan.planning_ms = msSince(t0);
+  return plan;
+}
+
+}  // namespace depowder::planner

@@ -1,0 +1,149 @@
+#include "depowder/planner/waypoints.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace depowder::planner {
+
+const char* toString(Tool t) {
+  switch (t) {
+    case Tool::kOff:
+      return "off";
+    case Tool::kVacuum:
+      return "vacuum";
+    case Tool::kAir:
+      return "air";
+  }
+  return "?";
+}
+
+Pose nozzleDown(const robot::ArmConfig& arm, const Point& tip) {
+  Eigen::Vector3d x = tip - arm.T_cell_base.translation();
+  x.z() = 0;
+  if (x.norm() < 1e-9) x = arm.T_cell_base.linear().col(0);
+  x.z() = 0;
+  x.normalize();
+  const Eigen::Vector3d z(0, 0, -1);
+  Pose T = Pose::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = z.cross(x);
+  T.linear().col(2) = z;
+  T.translation() = tip;
+  return T;
+}
+
+std::string PathReport::summary() const {
+  std::string s = std::to_string(kept) + "/" + std::to_string(input) + " waypoints kept, " + std::to_string(pushed) +
+                  " pushed, " + std::to_string(dropped) + " dropped for collision";
+  if (!first_contact.empty()) s += " (" + first_contact + ")";
+  s += ", " + std::to_string(unreachable) + " unreachable";
+  if (cuts > 0) s += ", " + std::to_string(cuts) + " cuts";
+  return s;
+}
+
+std::size_t RefinedPath::size() const {
+  std::size_t n = 0;
+  for (const auto& p : pieces) n += p.size();
+  return n;
+}
+
+namespace {
+
+double maxJointStep(const robot::Joints& a, const robot::Joints& b) {
+  double m = 0;
+  for (int i = 0; i < 6; ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+Pose interpolate(const Pose& a, const Pose& b, double s) {
+  Pose T = Pose::Identity();
+  T.linear() = Eigen::Quaterniond(a.linear()).slerp(s, Eigen::Quaterniond(b.linear())).toRotationMatrix();
+  T.translation() = (1 - s) * a.translation() + s * b.translation();
+  return T;
+}
+
+}  // namespace
+
+bool edgeFree(const CollisionWorld& world, const Waypoint& a, const Waypoint& b, const PlannerConfig& config,
+              bool include_powder) {
+  const robot::ArmConfig& arm = world.arm();
+  const double length = (b.T_cell_nozzle.translation() - a.T_cell_nozzle.translation()).norm();
+  const int n = std::max(1, static_cast<int>(std::ceil(length / config.collision.edge_step)));
+  robot::Joints q = a.q;
+  for (int k = 1; k <= n; ++k) {
+    robot::Joints next = b.q;
+    if (k < n) {
+      const auto ik = robot::inverseNozzle(arm, interpolate(a.T_cell_nozzle, b.T_cell_nozzle, double(k) / n), q);
+      if (!ik) return false;
+      next = *ik;
+    }
+    if (maxJointStep(q, next) > config.collision.max_joint_step) return false;
+    if (k < n && world.checkArm(next, include_powder)) return false;
+    q = next;
+  }
+  return true;
+}
+
+RefinedPath refinePath(const CollisionWorld& world, const Cloud& tips, Tool tool, double speed, PushMode push,
+                       const Point& centre, const robot::Joints& seed, const PlannerConfig& config) {
+  const robot::ArmConfig& arm = world.arm();
+  const CollisionConfig& cc = config.collision;
+  RefinedPath out;
+  PathReport& r = out.report;
+  robot::Joints prev_q = seed;
+  const Waypoint* last = nullptr;
+  for (std::size_t i = 0; i < tips.size(); ++i) {
+    ++r.input;
+    Eigen::Vector3d dir(0, 0, 1);
+    if (push == PushMode::kOutward) {
+      dir = tips[i] - centre;
+      dir.z() = 0;
+      dir = dir.norm() > 1e-9 ? Eigen::Vector3d(dir.normalized()) : Eigen::Vector3d::UnitX();
+    }
+    // Try the waypoint where it is, then pushed out step by step.
+    Waypoint w;
+    w.tool = tool;
+    w.speed = speed;
+    bool found = false, reachable = true;
+    Contact contact;
+    const int steps = static_cast<int>(std::floor(cc.max_push / cc.push_step + 1e-9));
+    for (int k = 0; k <= steps; ++k) {
+      w.T_cell_nozzle = nozzleDown(arm, tips[i] + k * cc.push_step * dir);
+      const auto q = robot::inverseNozzle(arm, w.T_cell_nozzle, prev_q);
+      if (!q) {
+        reachable = k > 0;  // unreachable where it is; a failed push counts as a collision drop
+        break;
+      }
+      contact = world.checkArm(*q);
+      if (!contact) {
+        w.q = *q;
+        found = true;
+        if (k > 0) ++r.pushed;
+        break;
+      }
+    }
+    if (!found) {
+      if (!reachable) {
+        ++r.unreachable;
+        r.unreachable_indices.push_back(static_cast<int>(i));
+      } else {
+        ++r.dropped;
+        r.dropped_indices.push_back(static_cast<int>(i));
+        if (r.first_contact.empty()) r.first_contact = contact.what;
+      }
+      continue;
+    }
+    // Can the arm run from the previous waypoint to this one? If not, start a new piece.
+    if (!last || !edgeFree(world, *last, w, config)) {
+      if (last) ++r.cuts;
+      out.pieces.emplace_back();
+    }
+    out.pieces.back().push_back(w);
+    last = &out.pieces.back().back();
+    prev_q = w.q;
+    ++r.kept;
+  }
+  return out;
+}
+
+}  // namespace depowder::planner
