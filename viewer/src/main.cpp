@@ -177,6 +177,7 @@ int main(int argc, char** argv) {
     const std::string bus_url = o.url.value_or(cell.lcm.url);
     node::Bus bus(bus_url, o.prefix.value_or(cell.lcm.prefix));
     viewer::subscribe(bus, model);
+    const bool replay = bus_url.rfind("file://", 0) == 0;  // reading a log: nothing to publish to
     node::Heartbeat heartbeat(bus, "depowder-viewer");
     heartbeat.setState(heartbeat_t::RUNNING);
     ErrorReporter errors;
@@ -201,7 +202,7 @@ int main(int argc, char** argv) {
       heartbeat.setStat("frames_rendered", static_cast<double>(rendered));
       heartbeat.setStat("points_skipped", static_cast<double>(skipped));
       heartbeat.setStat("snapshots_written", static_cast<double>(written));
-      heartbeat.tick();
+      if (!replay) heartbeat.tick();
     };
     auto expired = [&]() { return o.duration_s > 0 && seconds() - start >= o.duration_s; };
     auto write = [&](const std::string& path) {
@@ -213,13 +214,13 @@ int main(int argc, char** argv) {
 
     // One LCM message (or a timeout). False at the end of a log (--url file://...): LCM's
     // log provider reports it as a failed handle.
-    const bool replay = bus_url.rfind("file://", 0) == 0;
+    // A signal (SIGTERM from the launcher) interrupting LCM's wait also fails the handle.
     auto pump = [&](int wait_ms) {
       try {
         bus.spinOnce(wait_ms);
         return true;
       } catch (const node::BusError&) {
-        if (replay) return false;
+        if (replay || node::shutdownRequested()) return false;
         throw;
       }
     };
@@ -292,7 +293,7 @@ int main(int argc, char** argv) {
           try {
             viewer::drain(bus, 0, 20);
           } catch (const node::BusError&) {
-            if (!replay) throw;
+            if (!replay && !node::shutdownRequested()) throw;
             more = false;  // end of the log: keep showing the last state
           }
         }
