@@ -22,6 +22,7 @@
 #include "depowder/part_pose_t.hpp"
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/progress_t.hpp"
+#include "depowder/viewer/display.hpp"
 #include "depowder/viewer/renderer.hpp"
 #include "picture_checks.hpp"
 
@@ -39,12 +40,15 @@ const std::vector<std::string> kChannels = {"POINTS",    "PART_POSE",   "PROGRES
 
 double seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
-/// Runs depowder-viewer with no DISPLAY; stdout and stderr go to `log`.
-pid_t spawnViewer(const std::vector<std::string>& args, const fs::path& log) {
+/// Runs depowder-viewer (with no DISPLAY unless `display` is given); stdout and stderr go to `log`.
+pid_t spawnViewer(const std::vector<std::string>& args, const fs::path& log, const std::string& display = "") {
   const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-viewer";
   const pid_t pid = fork();
   if (pid == 0) {
-    unsetenv("DISPLAY");
+    if (display.empty())
+      unsetenv("DISPLAY");
+    else
+      setenv("DISPLAY", display.c_str(), 1);
     unsetenv("LCM_DEFAULT_URL");
     FILE* f = std::fopen(log.c_str(), "w");
     if (f) {
@@ -319,4 +323,31 @@ TEST_F(ViewerProcess, LiveWindowWithoutADisplayFailsWithAPlainMessage) {
   const pid_t pid = spawnViewer({"--config", (dir_ / "cell.yaml").string()}, dir_ / "viewer.log");
   EXPECT_EQ(waitExit(pid, 10), 1);
   EXPECT_NE(log().find("no X display"), std::string::npos) << log();
+}
+
+// The live window (on a private Xvfb standing in for a desktop): it draws what it hears,
+// reports it in its heartbeat, and closes at --duration.
+TEST_F(ViewerProcess, LiveWindowDrawsWhatItHears) {
+  const std::string saved = std::getenv("DISPLAY") ? std::getenv("DISPLAY") : "";
+  Xvfb xvfb(800, 600);
+  const pid_t pid = spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--duration", "3", "--size", "640x480"},
+                                dir_ / "viewer.log", xvfb.display());
+  setenv("DISPLAY", saved.c_str(), 1);
+  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !running(pid); }, 20)) << log();
+  std::int64_t seq = 0;
+  auto rendered = [&] {
+    for (std::size_t i = 0; i < heartbeat_.stat_names.size(); ++i)
+      if (heartbeat_.stat_names[i] == "frames_rendered") return heartbeat_.stat_values[i];
+    return 0.0;
+  };
+  const double before = rendered();
+  EXPECT_TRUE(spinUntil([&] { return rendered() >= before + 5 || !running(pid); }, 3,
+                        [&] {
+                          bus_->publish("POINTS", points(seq, 1000 + seq));
+                          bus_->publish("PART_POSE", partPose(1000 + seq));
+                          ++seq;
+                        }))
+      << log();
+  EXPECT_TRUE(running(pid));
+  EXPECT_EQ(waitExit(pid, 10), 0) << log();
 }
