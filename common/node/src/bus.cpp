@@ -1,5 +1,6 @@
 #include "depowder/node/bus.hpp"
 
+#include <cerrno>
 #include <cstdlib>
 #include <exception>
 #include <utility>
@@ -64,7 +65,9 @@ void Bus::publishRaw(const std::string& name, const void* data, int size) {
 
 int Bus::spinOnce(int timeout_ms) {
   const auto before = counters_.received + counters_.decode_errors + counters_.handler_errors;
+  errno = 0;
   const int rc = lcm_.handleTimeout(timeout_ms);
+  if (rc < 0 && errno == EINTR) return 0;  // a signal (e.g. SIGTERM for shutdown) interrupted the wait
   if (rc < 0) throw BusError("LCM handle failed (the LCM socket reported an error)");
   return static_cast<int>(counters_.received + counters_.decode_errors + counters_.handler_errors - before);
 }
