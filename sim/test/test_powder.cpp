@@ -17,8 +17,7 @@ constexpr double kSize = 0.30, kCell = 0.003, kArea = kCell * kCell;
 int cellsWithin(double x, double y, double r) {
   int n = 0;
   for (int j = 0; j < 100; ++j)
-    for (int i = 0; i < 100; ++i)
-      n += std::hypot(-0.15 + (i + 0.5) * kCell - x, -0.15 + (j + 0.5) * kCell - y) <= r;
+    for (int i = 0; i < 100; ++i) n += std::hypot(-0.15 + (i + 0.5) * kCell - x, -0.15 + (j + 0.5) * kCell - y) <= r;
   return n;
 }
 

@@ -137,7 +137,7 @@ TEST(World, DiggingBesideAPartExposesItsSide) {
   world.digToVisibility(0, 0.5);                                  // powder at 3 cm around it
   const DepthImage img = world.render(0, nullptr);
   EXPECT_GT(sidePixels(img, 0.032, 0.058), 80);  // the upper half of the side shows (130 px here)
-  EXPECT_EQ(sidePixels(img, 0.0, 0.028), 0);      // the lower half is still in the powder
+  EXPECT_EQ(sidePixels(img, 0.0, 0.028), 0);     // the lower half is still in the powder
 }
 
 TEST(World, NozzleOccludesAndTouches) {
@@ -208,8 +208,8 @@ TEST(World, MovingAPartMovesItsFloorAndBand) {
 }
 
 TEST(World, SeededRunsAreBitIdentical) {
-  const std::vector<CameraModel> cams{sideCamera(), CameraModel::fromFov("TOP", 320, 240, 70, 55,
-                                                                          cameraLookAt({0.1, 0.4, 0.5}, {0, 0, 0}))};
+  const std::vector<CameraModel> cams{
+      sideCamera(), CameraModel::fromFov("TOP", 320, 240, 70, 55, cameraLookAt({0.1, 0.4, 0.5}, {0, 0, 0}))};
   Orbit orbit;
   orbit.radii = {0.06, 0.05};
   orbit.height = 0.075;
