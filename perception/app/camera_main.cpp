@@ -80,7 +80,7 @@ class CameraNode {
  public:
   explicit CameraNode(const CameraNodeOptions& o)
       : options_(o),
-        bus_(o.cell.lcm.url, o.cell.lcm.prefix),
+        bus_(lcmUrl(o.cell.lcm.url, o.recv_buf_size), o.cell.lcm.prefix),
         heartbeat_(bus_, "depowder-camera", o.heartbeat_period),
         proxy_(o.perception, o.cell.box.size, knownCameras(o)),
         errors_(o.verbose) {}
@@ -88,8 +88,8 @@ class CameraNode {
   int run() {
     heartbeat_.setState(heartbeat_t::RUNNING);
     const int rc = options_.files.dir.empty() ? runLive() : runFiles();
-    heartbeat_.setState(heartbeat_t::STOPPING);
-    updateHealth();
+    const std::string reason = updateHealth();
+    heartbeat_.setState(heartbeat_t::STOPPING, reason.empty() ? "shutting down" : "shutting down; " + reason);
     heartbeat_.publish();
     return rc;
   }
@@ -124,7 +124,14 @@ class CameraNode {
       int timeout_ms = 50;
       if (const std::int64_t deadline = proxy_.nextDeadline(); deadline > 0)
         timeout_ms = static_cast<int>(std::clamp<std::int64_t>((deadline - nowUtime() + 999) / 1000, 0, 50));
-      bus_.spinOnce(timeout_ms);
+      try {
+        bus_.spinOnce(timeout_ms);
+      } catch (const node::BusError&) {
+        // lcm_handle_timeout fails with EINTR when SIGTERM / SIGINT interrupts it: that is
+        // the shutdown, not a fault.
+        if (node::shutdownRequested()) break;
+        throw;
+      }
       publishReady();
       for (const std::string& e : bus_.takeErrors()) std::fprintf(stderr, "depowder-camera: %s\n", e.c_str());
       updateHealth();
@@ -187,7 +194,8 @@ class CameraNode {
     }
   }
 
-  void updateHealth() {
+  // Heartbeat figures and state; returns the reason it is DEGRADED ("" when healthy).
+  std::string updateHealth() {
     const ProxyCounters& c = proxy_.counters();
     heartbeat_.setStat("frames_in", static_cast<double>(c.frames_in));
     heartbeat_.setStat("frames_out", static_cast<double>(c.frames_out));
@@ -223,6 +231,7 @@ class CameraNode {
     if (!reason.empty() && reason.size() >= 2 && reason.compare(reason.size() - 2, 2, "; ") == 0)
       reason.resize(reason.size() - 2);
     heartbeat_.setState(reason.empty() ? heartbeat_t::RUNNING : heartbeat_t::DEGRADED, reason);
+    return reason;
   }
 
   const CameraNodeOptions& options_;

@@ -1,5 +1,6 @@
 #include "camera_options.hpp"
 
+#include <cstdlib>
 #include <sstream>
 #include <stdexcept>
 
@@ -12,6 +13,7 @@ void readSection(const node::YamlReader& r, CameraNodeOptions& o) {
   r.read("input", o.input);
   r.read("output", o.output);
   r.read("heartbeat_period", o.heartbeat_period, 0.05, 10.0);
+  r.read("recv_buf_size", o.recv_buf_size, 0, 1 << 30);
   r.read("crop_margin", p.crop_margin, 0.0, 0.5);
   r.read("voxel_leaf", p.voxel_leaf, 0.001, 0.05);
   r.read("outlier_min_neighbours", p.outlier_min_neighbours, 0, 26);
@@ -65,6 +67,17 @@ double parseNumber(const std::string& flag, const std::string& text, double lo, 
 }
 
 }  // namespace
+
+std::string lcmUrl(const std::string& url, int recv_buf_size) {
+  std::string u = url;
+  if (u.empty()) {
+    const char* env = std::getenv("LCM_DEFAULT_URL");
+    u = env && *env ? env : "udpm://239.255.76.67:7667?ttl=0";
+  }
+  if (recv_buf_size > 0 && u.rfind("udpm://", 0) == 0 && u.find("recv_buf_size=") == std::string::npos)
+    u += (u.find('?') == std::string::npos ? "?" : "&") + std::string("recv_buf_size=") + std::to_string(recv_buf_size);
+  return u;
+}
 
 std::string usage() {
   return "usage: depowder-camera [options]\n"

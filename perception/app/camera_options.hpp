@@ -16,7 +16,8 @@ struct FilesConfig {
   std::string dir;       ///< directory of .pcd / .ply files; "" = live mode
   double rate_hz = 10;   ///< scans published per second
   bool loop = false;     ///< start over after the last file
-  PinholeCamera camera;  ///< name, pose (T_cell_camera) and z range of the scans; intrinsics unused
+  PinholeCamera camera;  ///< name, pose (T_cell_camera) and range limits (distance from the camera) of the scans;
+                         ///< intrinsics unused
 };
 
 struct CameraNodeOptions {
@@ -26,6 +27,8 @@ struct CameraNodeOptions {
   std::string input = "DEPTH_.*";  ///< LCM channel regex of the depth frames (before the prefix)
   std::string output = "POINTS";
   double heartbeat_period = 0.5;  ///< s
+  int recv_buf_size = 4 << 20;    ///< bytes of UDP receive buffer asked of LCM's udpm (depth frames are
+                                  ///< 150-600 kB each); the kernel caps it at net.core.rmem_max; 0 = LCM default
   FilesConfig files;
   bool verbose = false;
 };
@@ -35,5 +38,9 @@ struct CameraNodeOptions {
 std::optional<CameraNodeOptions> parseOptions(int argc, char** argv);
 
 std::string usage();
+
+/// The LCM URL to open: `url`, else $LCM_DEFAULT_URL, else LCM's default udpm URL; for udpm
+/// without its own recv_buf_size, `recv_buf_size` is added (unless 0).
+std::string lcmUrl(const std::string& url, int recv_buf_size);
 
 }  // namespace depowder::perception

@@ -75,12 +75,11 @@ CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, cons
   std::vector<Eigen::Vector3d> column(static_cast<std::size_t>(w)), row(static_cast<std::size_t>(h));
   for (int u = 0; u < w; ++u) column[u] = R.col(0) * ((u - camera.cx) / camera.fx);
   for (int v = 0; v < h; ++v) row[v] = R.col(1) * ((v - camera.cy) / camera.fy) + R.col(2);
-  // Range limits in counts (inclusive), so the inner loop compares integers.
+  // Range limits on the distance from the camera centre (the ray length a LiDAR such as the
+  // L515 measures): |p_camera| = z * |ray| with ray = [(u - cx) / fx, (v - cy) / fy, 1], and
+  // |R ray| = |ray|. Compared squared, so a pixel needs no square root.
   const double unit = image.depth_unit;
-  const double lo = std::max(1.0, std::ceil(camera.min_range / unit - 1e-9));
-  const double hi = std::min(65535.0, std::floor(camera.max_range / unit + 1e-9));
-  const std::uint32_t min_count = static_cast<std::uint32_t>(lo);
-  const std::uint32_t max_count = hi < lo ? 0u : static_cast<std::uint32_t>(hi);
+  const double min2 = camera.min_range * camera.min_range, max2 = camera.max_range * camera.max_range;
 
   FrameCounts& n = out.counts;
   n.inputs = image.depth.size();
@@ -94,12 +93,14 @@ CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, cons
         ++n.no_return;
         continue;
       }
-      if (raw < min_count || raw > max_count) {
+      const double z = raw * unit;
+      const Eigen::Vector3d ray = column[u] + rv;
+      const double range2 = z * z * ray.squaredNorm();
+      if (range2 < min2 || range2 > max2) {
         ++n.out_of_range;
         continue;
       }
-      const double z = raw * unit;
-      const Eigen::Vector3d p = t + z * (column[u] + rv);
+      const Eigen::Vector3d p = t + z * ray;
       if (!inside(crop, p)) {
         ++n.outside_crop;
         continue;
@@ -130,7 +131,8 @@ CameraCloud cameraPointsToCell(const Cloud& camera_points, const PinholeCamera& 
       ++n.no_return;
       continue;
     }
-    if (q.z() < camera.min_range || q.z() > camera.max_range) {
+    const double range = q.norm();
+    if (range < camera.min_range || range > camera.max_range) {
       ++n.out_of_range;
       continue;
     }

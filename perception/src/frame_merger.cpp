@@ -14,7 +14,10 @@ FrameMerger::FrameMerger(MergerConfig config, std::vector<std::string> known_cam
 }
 
 bool FrameMerger::expected(const Camera& c, std::int64_t now) const {
-  return c.last_arrival > 0 && now - c.last_arrival <= micros(config_.silent_after) && !stale(c);
+  // A known camera that has not sent anything yet counts as heard from at start-up, so the
+  // first time steps wait for it too (else its first frame would arrive "late").
+  const std::int64_t heard = std::max(c.last_arrival, start_);
+  return heard > 0 && now - heard <= micros(config_.silent_after) && !stale(c);
 }
 
 bool FrameMerger::stale(const Camera& c) const {
@@ -22,6 +25,7 @@ bool FrameMerger::stale(const Camera& c) const {
 }
 
 FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
+  if (start_ == 0) start_ = arrival;
   // Health first: a camera whose frames are all late is stale, not silent.
   Camera& cam = cameras_[frame.camera];
   cam.last_arrival = arrival;

@@ -146,7 +146,10 @@ DepthImage render(const Scene& scene, const PinholeCamera& camera, std::int64_t 
   image.depth.resize(z.size());
   for (std::size_t i = 0; i < z.size(); ++i) {
     const double counts = std::round(z[i] / depth_unit);
-    const bool valid = z[i] >= camera.min_range && z[i] <= camera.max_range && counts <= 65535;
+    const int u = static_cast<int>(i % static_cast<std::size_t>(w)),
+              v = static_cast<int>(i / static_cast<std::size_t>(w));
+    const double range = z[i] * Eigen::Vector3d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0).norm();
+    const bool valid = z[i] > 0 && range >= camera.min_range && range <= camera.max_range && counts <= 65535;
     image.depth[i] = valid ? static_cast<std::uint16_t>(counts) : 0;
   }
   return image;

@@ -55,7 +55,7 @@ struct Noise {
 };
 
 /// Exact depth image (ray cast per pixel centre), quantised to `depth_unit`; no return where
-/// nothing is hit or z is out of the camera's range. With `noise`, Gaussian depth noise and
+/// nothing is hit or the distance from the camera is out of its range. With `noise`, Gaussian depth noise and
 /// flying pixels drawn from `rng`.
 DepthImage render(const Scene& scene, const PinholeCamera& camera, std::int64_t utime, double depth_unit = 0.00025,
                   const Noise* noise = nullptr, std::mt19937* rng = nullptr);

@@ -62,7 +62,7 @@ TEST(Deproject, HandComputedPinholeExample) {
   EXPECT_EQ(out.counts.kept, 2u);
 }
 
-TEST(Deproject, RangeLimitsApplyToDepthZ) {
+TEST(Deproject, RangeLimitsApplyToTheDistanceFromTheCamera) {
   PinholeCamera cam = handCamera();
   cam.min_range = 1.2;  // drops the 1.0 m return
   CameraCloud out = deproject(handImage(), cam, kEverywhere);
@@ -70,8 +70,15 @@ TEST(Deproject, RangeLimitsApplyToDepthZ) {
   ASSERT_EQ(out.points.size(), 1u);
   EXPECT_NEAR(out.points[0].z(), 0.5, 1e-12);
   EXPECT_EQ(out.counts.out_of_range, 1u);
+  // The (3, 1) return has z = 1.0 but lies |(0.015, 0.0025, 1)| = 1.0001156 m from the camera:
+  // a 1.0001 m limit drops it (it is a range limit, not a depth limit), 1.0002 m keeps it.
   cam.min_range = 0.25;
-  cam.max_range = 1.0;  // inclusive: keeps 1.0 m, drops 1.5 m
+  cam.max_range = 1.0001;
+  out = deproject(handImage(), cam, kEverywhere);
+  EXPECT_EQ(out.error.status, FrameStatus::kNoValidReturns);  // both returns are out of range
+  EXPECT_EQ(out.points.size(), 0u);
+  EXPECT_EQ(out.counts.out_of_range, 2u);
+  cam.max_range = 1.0002;
   out = deproject(handImage(), cam, kEverywhere);
   ASSERT_EQ(out.points.size(), 1u);
   EXPECT_NEAR(out.points[0].z(), 1.0, 1e-12);

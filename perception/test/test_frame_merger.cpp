@@ -73,11 +73,28 @@ TEST(FrameMerger, MissingCameraWaitsAtMostMaxWaitThenStopsBeingWaitedFor) {
   EXPECT_FALSE(health[0].silent);
 }
 
-TEST(FrameMerger, KnownButNeverSeenCameraIsReportedAndNotWaitedFor) {
+TEST(FrameMerger, KnownCameraIsWaitedForAtStartUpOnlyUntilFoundSilent) {
   FrameMerger m(config(), {"LEFT", "RIGHT"});
+  // At start-up a known camera is expected even before its first frame...
   m.add(frame("LEFT", kT0), kT0);
-  EXPECT_EQ(m.poll(kT0).size(), 1u);
-  const auto health = m.health(kT0);
+  EXPECT_TRUE(m.poll(kT0 + 39 * kMs).empty());
+  m.add(frame("RIGHT", kT0 + 1 * kMs), kT0 + 2 * kMs);
+  auto out = m.poll(kT0 + 2 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].sources.size(), 2u);
+  // ... so one that never comes delays frames by max_wait during silent_after, then no more.
+  FrameMerger n(config(), {"LEFT", "RIGHT"});
+  n.add(frame("LEFT", kT0), kT0);
+  EXPECT_TRUE(n.poll(kT0 + 39 * kMs).empty());
+  out = n.poll(kT0 + 40 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].missing, std::vector<std::string>{"RIGHT"});
+  const std::int64_t later = kT0 + 1001 * kMs;
+  n.add(frame("LEFT", later), later);
+  out = n.poll(later);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_TRUE(out[0].missing.empty());
+  const auto health = n.health(later);
   ASSERT_EQ(health.size(), 2u);
   EXPECT_TRUE(health[1].silent);
   EXPECT_EQ(health[1].last_seen_age, -1);

@@ -12,7 +12,9 @@ struct MergerConfig {
   double max_wait = 0.040;         ///< s (wall clock): a time step is published this long after its first frame even if
                                    ///< a camera is missing, so a dead camera never stalls the stream
   double silent_after = 1.0;       ///< s (wall clock) without a frame: camera reported silent and no longer waited for
-  double stale_after = 0.5;        ///< s: a camera whose newest utime lags the newest of all cameras by more is stale
+  double stale_after = 0.5;        ///< s: a camera whose newest utime lags the newest of all cameras by more is
+                                   ///< reported stale and no longer waited for (a dead camera becomes stale
+                                   ///< before it becomes silent)
 };
 
 struct PerceptionConfig {

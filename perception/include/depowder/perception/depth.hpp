@@ -20,8 +20,9 @@ struct PinholeCamera {
   double fy = 0;
   double cx = 0;
   double cy = 0;
-  double min_range = 0;                   ///< m, on the depth z along the optical axis; nearer returns are invalid
-  double max_range = 100;                 ///< m, on z; farther returns are invalid
+  double min_range = 0;    ///< m, distance from the camera centre (ray length, as the L515 and the simulator
+                           ///< measure it); nearer returns are invalid
+  double max_range = 100;  ///< m, same distance; farther returns are invalid
   Pose T_cell_camera = Pose::Identity();  ///< camera frame: x right, y down, z forward
 };
 
@@ -39,7 +40,7 @@ struct DepthImage {
 struct FrameCounts {
   std::size_t inputs = 0;        ///< pixels or points looked at
   std::size_t no_return = 0;     ///< 0 or non-finite
-  std::size_t out_of_range = 0;  ///< z outside [min_range, max_range]
+  std::size_t out_of_range = 0;  ///< distance from the camera outside [min_range, max_range]
   std::size_t outside_crop = 0;  ///< valid, but outside the crop box
   std::size_t kept = 0;
 };
@@ -65,7 +66,8 @@ FrameError checkDepthImage(const DepthImage& image, const PinholeCamera& camera)
 CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, const Eigen::AlignedBox3d& crop);
 
 /// The same for a recorded scan given as camera-frame points (organised or not):
-/// non-finite points and z outside the camera's range are dropped; intrinsics are unused.
+/// non-finite points and points whose distance from the camera is out of range are dropped;
+/// intrinsics are unused.
 CameraCloud cameraPointsToCell(const Cloud& camera_points, const PinholeCamera& camera,
                                const Eigen::AlignedBox3d& crop);
 

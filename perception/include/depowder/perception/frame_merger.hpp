@@ -42,7 +42,8 @@ struct CameraHealth {
 class FrameMerger {
  public:
   /// `known_cameras` (e.g. from the cell YAML) are reported by health() even before (or
-  /// if never) they send anything; they are waited for only once they have been seen.
+  /// if never) they send anything, and are waited for during the first silent_after after
+  /// the first frame arrives; a camera that is neither known nor seen is never waited for.
   explicit FrameMerger(MergerConfig config = {}, std::vector<std::string> known_cameras = {});
 
   /// Files a frame under its time step. kLate: its time step was already released;
@@ -81,6 +82,7 @@ class FrameMerger {
   std::vector<Group> pending_;               ///< sorted by utime
   std::int64_t released_utime_ = INT64_MIN;  ///< reference utime of the last released group
   std::int64_t newest_utime_ = INT64_MIN;
+  std::int64_t start_ = 0;  ///< arrival of the first frame (wall clock)
 };
 
 }  // namespace depowder::perception

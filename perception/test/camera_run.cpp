@@ -1,0 +1,97 @@
+#include "camera_run.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <mutex>
+#include <thread>
+
+#include "depowder/node/convert.hpp"
+#include "depth_msg.hpp"
+#include "netns_helpers.hpp"
+
+namespace depowder::perception::testing {
+
+const char* const kListenUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
+
+double CameraRunResult::stat(const std::string& name) const {
+  for (std::size_t i = 0; i < last_heartbeat.stat_names.size(); ++i)
+    if (last_heartbeat.stat_names[i] == name) return last_heartbeat.stat_values[i];
+  return std::nan("");
+}
+
+CameraRunResult runCamera(const CameraRunConfig& config) {
+  using Clock = std::chrono::steady_clock;
+  CameraRunResult result;
+  std::mutex mutex;
+  // A large receive buffer: this socket also gets every DEPTH frame on the group.
+  node::Bus listener(kListenUrl, config.prefix);
+  pid_t child_pid = -1;
+  std::atomic<bool> started{false};
+  listener.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& msg, const std::string&) {
+    result.clouds.push_back({msg, node::nowUtime()});
+  });
+  listener.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& msg, const std::string&) {
+    if (msg.process != "depowder-camera" || msg.pid != child_pid) return;
+    std::lock_guard<std::mutex> lock(mutex);
+    result.last_heartbeat = msg;
+    ++result.heartbeats;
+    started = true;
+  });
+
+  std::vector<std::string> argv = {config.binary, "--prefix", config.prefix};
+  argv.insert(argv.end(), config.extra_args.begin(), config.extra_args.end());
+  ChildProcess child(argv, config.log_path);
+  child_pid = child.pid();
+  // Its first heartbeat says it is up and subscribed.
+  for (auto end = Clock::now() + std::chrono::seconds(10); !started && Clock::now() < end;) listener.spinOnce(50);
+  if (!started) {
+    result.error = "depowder-camera sent no heartbeat within 10 s (see " + config.log_path + ")";
+    return result;
+  }
+
+  // Messages are converted once; only utime and frame change per step.
+  std::vector<std::vector<depth_image_t>> msgs(config.cameras.size());
+  for (std::size_t c = 0; c < config.cameras.size(); ++c)
+    for (const DepthImage& im : config.frames[c]) msgs[c].push_back(toMsg(im, config.cameras[c]));
+  result.published_utimes.assign(static_cast<std::size_t>(config.steps),
+                                 std::vector<std::int64_t>(config.cameras.size(), 0));
+  std::atomic<bool> done{false};
+  std::thread publisher([&] {
+    node::Bus bus("", config.prefix);
+    const auto t0 = Clock::now() + std::chrono::milliseconds(100);
+    for (int step = 0; step < config.steps; ++step) {
+      std::this_thread::sleep_until(
+          t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(step / config.rate_hz)));
+      for (std::size_t c = 0; c < config.cameras.size(); ++c) {
+        depth_image_t& msg = msgs[c][static_cast<std::size_t>(step) % msgs[c].size()];
+        msg.frame = step;
+        msg.utime = node::nowUtime();
+        bool publish = true;
+        if (config.fault) {
+          depth_image_t copy = msg;
+          publish = config.fault(step, static_cast<int>(c), copy, bus);
+          if (publish) bus.publish("DEPTH_" + config.cameras[c].name, copy);
+        } else {
+          bus.publish("DEPTH_" + config.cameras[c].name, msg);
+        }
+        if (publish) result.published_utimes[static_cast<std::size_t>(step)][c] = msg.utime;
+      }
+    }
+    done = true;
+  });
+  while (!done) listener.spinOnce(20);
+  publisher.join();
+  for (auto end = Clock::now() + std::chrono::duration<double>(config.grace_s); Clock::now() < end;)
+    listener.spinOnce(20);
+  // Stop it and collect its last (STOPPING) heartbeat.
+  kill(child.pid(), SIGTERM);
+  for (auto end = Clock::now() + std::chrono::seconds(3);
+       Clock::now() < end && result.last_heartbeat.state != heartbeat_t::STOPPING;)
+    listener.spinOnce(20);
+  result.exit_code = child.wait(5.0);
+  return result;
+}
+
+}  // namespace depowder::perception::testing

@@ -1,0 +1,99 @@
+#include "netns_helpers.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <stdexcept>
+#include <thread>
+
+extern char** environ;
+
+namespace depowder::perception::testing {
+
+bool inPrivateNetwork(std::string* why) {
+  // /proc/self/net/dev lists the interfaces of this process's network namespace (/sys/class/net
+  // would show the namespace sysfs was mounted in).
+  std::ifstream dev("/proc/self/net/dev");
+  if (!dev) {
+    if (why) *why = "cannot read /proc/self/net/dev";
+    return false;
+  }
+  std::vector<std::string> others;
+  std::string line;
+  while (std::getline(dev, line)) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;  // the two header lines
+    const auto start = line.find_first_not_of(' ');
+    const std::string name = line.substr(start, colon - start);
+    if (name != "lo") others.push_back(name);
+  }
+  if (!others.empty() && why) {
+    *why = "interfaces besides lo:";
+    for (const auto& o : others) *why += " " + o;
+  }
+  return others.empty();
+}
+
+ChildProcess::ChildProcess(const std::vector<std::string>& argv, const std::string& log_path) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  if (!log_path.empty()) {
+    posix_spawn_file_actions_addopen(&actions, 1, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  }
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  const int rc = posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) {
+    pid_ = -1;
+    throw std::runtime_error("cannot start " + argv[0]);
+  }
+}
+
+ChildProcess::~ChildProcess() {
+  if (pid_ > 0 && status_ < 0) stop(2.0);
+  if (pid_ > 0 && status_ < 0) {
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+  }
+}
+
+bool ChildProcess::running() { return wait(0) < 0; }
+
+int ChildProcess::wait(double timeout_s) {
+  if (status_ >= 0) return status_;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (true) {
+    int st = 0;
+    const pid_t r = waitpid(pid_, &st, WNOHANG);
+    if (r == pid_) {
+      status_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+      return status_;
+    }
+    if (std::chrono::steady_clock::now() >= end) return -1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
+int ChildProcess::stop(double timeout_s) {
+  if (status_ >= 0) return status_;
+  kill(pid_, SIGTERM);
+  return wait(timeout_s);
+}
+
+double percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const double rank = std::clamp(q, 0.0, 1.0) * static_cast<double>(values.size() - 1);
+  return values[static_cast<std::size_t>(rank + 0.5)];
+}
+
+}  // namespace depowder::perception::testing

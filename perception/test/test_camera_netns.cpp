@@ -1,0 +1,214 @@
+// depowder-camera as a process, over udpm inside a private network namespace (run it
+// through test/netns-run; ctest does): live frames from two cameras become one POINTS per
+// time step, identical to the library's output; corrupt frames are counted and the
+// process keeps running; recorded scans play in order past a corrupt file.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "camera_run.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/perception/camera_proxy.hpp"
+#include "netns_helpers.hpp"
+#include "synthetic.hpp"
+
+using namespace depowder;
+using namespace depowder::perception;
+using namespace depowder::perception::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kBinary = std::string(DEPOWDER_BIN_DIR) + "/depowder-camera";
+const std::string kCell = std::string(DEPOWDER_SOURCE_DIR) + "/config/cell.yaml";
+
+std::string uniquePrefix(const std::string& name) { return "T" + std::to_string(::getpid()) + "_" + name + "_"; }
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+#define REQUIRE_PRIVATE_NETWORK()                                                                   \
+  do {                                                                                              \
+    std::string why;                                                                                \
+    if (!inPrivateNetwork(&why))                                                                    \
+      GTEST_SKIP() << "not in a private network namespace (" << why                                 \
+                   << "); run through test/netns-run (ctest does) so no multicast leaves the host"; \
+  } while (0)
+
+// The library's message for the frames of one time step (what depowder-camera must publish).
+point_cloud_t expectedCloud(const std::vector<PinholeCamera>& cams, const std::vector<DepthImage>& frames,
+                            const std::vector<int>& which) {
+  PerceptionConfig cfg;
+  CameraProxy proxy(cfg, {0.40, 0.30, 0.20});
+  for (int c : which) EXPECT_TRUE(proxy.addDepth(frames[c], cams[c], 1).ok());
+  const auto out = proxy.poll(1);
+  EXPECT_EQ(out.size(), 1u);
+  return node::encodeCloud(out.at(0).points, 0, cfg.resolution);
+}
+
+}  // namespace
+
+TEST(CameraNetns, LiveFramesBecomeOnePointsPerTimeStepAndCorruptFramesAreSurvived) {
+  REQUIRE_PRIVATE_NETWORK();
+  ASSERT_TRUE(fs::exists(kBinary)) << kBinary;
+  // The default cell: LEFT and RIGHT at 320 x 240, posed as synthetic::defaultRig.
+  const auto cams = synthetic::defaultRig(320, 240);
+  const auto scene = synthetic::boxScene({0.40, 0.30, 0.20}, 0.08, {synthetic::Sphere{{0.02, 0.01, 0.09}, 0.04}});
+  const std::vector<DepthImage> frames = {synthetic::render(scene, cams[0], 0), synthetic::render(scene, cams[1], 0)};
+
+  CameraRunConfig run;
+  run.binary = kBinary;
+  run.extra_args = {"--cell", kCell};
+  run.prefix = uniquePrefix("live");
+  run.log_path = (fs::temp_directory_path() / (run.prefix + "camera.log")).string();
+  run.steps = 90;  // 3 s at 30 Hz
+  run.cameras = cams;
+  run.frames = {{frames[0]}, {frames[1]}};
+  run.fault = [](int step, int camera, depth_image_t& msg, node::Bus& bus) {
+    if (step == 30 && camera == 1) msg.width += 1;                                  // header disagrees with the data
+    if (step == 45 && camera == 0) std::fill(msg.data.begin(), msg.data.end(), 0);  // no return at all
+    if (step == 60 && camera == 0) {                                                // not a depth_image_t at all
+      const std::string junk(100, 'x');
+      bus.publishRaw("DEPTH_LEFT", junk.data(), static_cast<int>(junk.size()));
+      return false;
+    }
+    return true;
+  };
+  const CameraRunResult r = runCamera(run);
+  ASSERT_TRUE(r.error.empty()) << r.error << "\n" << readFile(run.log_path);
+
+  const point_cloud_t both = expectedCloud(cams, frames, {0, 1}), left = expectedCloud(cams, frames, {0}),
+                      right = expectedCloud(cams, frames, {1});
+  ASSERT_EQ(r.clouds.size(), 90u) << readFile(run.log_path);
+  for (int step = 0; step < 90; ++step) {
+    const point_cloud_t& m = r.clouds[step].msg;
+    ASSERT_EQ(m.seq, step);
+    const auto& published = r.published_utimes[step];
+    std::vector<std::string> sources = {"LEFT", "RIGHT"};
+    const point_cloud_t* expected = &both;
+    if (step == 30) sources = {"LEFT"}, expected = &left;
+    if (step == 45 || step == 60) sources = {"RIGHT"}, expected = &right;
+    EXPECT_EQ(m.sources, sources) << "step " << step;
+    ASSERT_EQ(m.num_sources, static_cast<int>(sources.size()));
+    // POINTS carries the newest source frame's utime.
+    std::int64_t newest = 0;
+    for (std::size_t k = 0; k < sources.size(); ++k) {
+      const std::int64_t u = published[sources[k] == "LEFT" ? 0 : 1];
+      EXPECT_EQ(m.source_utimes[k], u);
+      newest = std::max(newest, u);
+    }
+    EXPECT_EQ(m.utime, newest);
+    EXPECT_EQ(m.frame, "cell");
+    // Bit-identical to the library's cloud for the same frames.
+    ASSERT_EQ(m.num_points, expected->num_points) << "step " << step;
+    EXPECT_EQ(m.xyz, expected->xyz) << "step " << step;
+    EXPECT_EQ(m.resolution, expected->resolution);
+  }
+  // Health: every drop counted by reason, the process still running until told to stop.
+  EXPECT_EQ(r.last_heartbeat.state, +heartbeat_t::STOPPING);
+  EXPECT_EQ(r.exit_code, 0) << readFile(run.log_path);
+  EXPECT_EQ(r.stat("frames_in"), 179);  // 180 sent, one not decodable
+  EXPECT_EQ(r.stat("frames_out"), 90);
+  EXPECT_EQ(r.stat("frames_partial"), 3);
+  EXPECT_EQ(r.stat("dropped_size_mismatch"), 1);
+  EXPECT_EQ(r.stat("dropped_no_valid_returns"), 1);
+  EXPECT_EQ(r.last_heartbeat.decode_errors, 1);
+  EXPECT_EQ(r.last_heartbeat.dropped, 2);
+  EXPECT_GE(r.stat("age_s_LEFT"), 0);
+  // Its log says why, in words.
+  const std::string log = readFile(run.log_path);
+  EXPECT_NE(log.find("camera 'RIGHT': frame 30 carries 76800 depth pixels but its header says 321x240"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("camera 'LEFT': frame 45 has no valid return"), std::string::npos) << log;
+  EXPECT_NE(log.find("could not decode a 100-byte message on " + run.prefix + "DEPTH_LEFT"), std::string::npos) << log;
+  fs::remove(run.log_path);
+}
+
+TEST(CameraNetns, SilentCameraIsReportedAndDoesNotStallTheStream) {
+  REQUIRE_PRIVATE_NETWORK();
+  const auto cams = synthetic::defaultRig(320, 240);
+  const auto scene = synthetic::boxScene({0.40, 0.30, 0.20}, 0.08, {});
+  CameraRunConfig run;
+  run.binary = kBinary;
+  run.extra_args = {"--cell", kCell};
+  run.prefix = uniquePrefix("silent");
+  run.log_path = (fs::temp_directory_path() / (run.prefix + "camera.log")).string();
+  run.steps = 75;  // 2.5 s; RIGHT dies after 0.5 s
+  run.cameras = cams;
+  run.frames = {{synthetic::render(scene, cams[0], 0)}, {synthetic::render(scene, cams[1], 0)}};
+  run.fault = [](int step, int camera, depth_image_t&, node::Bus&) { return !(camera == 1 && step >= 15); };
+  run.grace_s = 0.3;
+  const CameraRunResult r = runCamera(run);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  // Every time step still comes out. RIGHT is waited for (max_wait, 40 ms) until its newest
+  // frame lags the newest frame by stale_after (0.5 s, about 15 steps), then no longer: those
+  // steps are not "partial" any more, and come out at once. After silent_after (1 s) it is
+  // reported silent.
+  ASSERT_EQ(r.clouds.size(), 75u) << readFile(run.log_path);
+  for (int step = 0; step < 75; ++step) EXPECT_EQ(r.clouds[step].msg.num_sources, step < 15 ? 2 : 1) << step;
+  EXPECT_GE(r.stat("frames_partial"), 13);
+  EXPECT_LE(r.stat("frames_partial"), 17);
+  std::vector<double> late_ms;
+  for (int step = 60; step < 75; ++step)
+    late_ms.push_back((r.clouds[step].receive_utime - r.clouds[step].msg.utime) / 1000.0);
+  EXPECT_LT(percentile(late_ms, 0.5), 35.0);  // no longer waiting max_wait for RIGHT
+  EXPECT_GT(r.stat("age_s_RIGHT"), 1.5);
+  EXPECT_EQ(r.last_heartbeat.state, +heartbeat_t::STOPPING);
+  EXPECT_NE(r.last_heartbeat.state_reason.find("camera RIGHT silent for"), std::string::npos)
+      << r.last_heartbeat.state_reason;
+  fs::remove(run.log_path);
+}
+
+TEST(CameraNetns, RecordedScansPlayInOrderPastACorruptFile) {
+  REQUIRE_PRIVATE_NETWORK();
+  const fs::path dir = fs::temp_directory_path() / uniquePrefix("scans");
+  fs::create_directories(dir);
+  // 1: a PLY of 3 points 1 cm apart inside the box, 2: corrupt, 3: a PCD of 2 points.
+  // The scans' camera frame is the cell frame (--camera-pose 0,0,0,0,0,0).
+  std::ofstream(dir / "1.ply") << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                  "property float z\nend_header\n0 0 0.1\n0.01 0 0.1\n0.02 0 0.1\n";
+  std::ofstream(dir / "2.pcd") << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4\n";
+  std::ofstream(dir / "3.pcd") << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                  "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0.05 0.05 0.05\n0.5 0.5 0.5\n";
+  const std::string prefix = uniquePrefix("files");
+  node::Bus listener(kListenUrl, prefix);
+  std::vector<point_cloud_t> clouds;
+  heartbeat_t last;
+  listener.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& m, const std::string&) { clouds.push_back(m); });
+  listener.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& m, const std::string&) {
+    if (m.process == "depowder-camera") last = m;
+  });
+  const std::string log = (fs::temp_directory_path() / (prefix + "camera.log")).string();
+  ChildProcess child({kBinary, "--cell", kCell, "--prefix", prefix, "--files", dir.string(), "--rate", "20",
+                      "--camera-pose", "0,0,0,0,0,0", "--camera-name", "SCANNER"},
+                     log);
+  int exit_code = -1;
+  for (auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+       exit_code < 0 && std::chrono::steady_clock::now() < end;) {
+    listener.spinOnce(20);
+    exit_code = child.wait(0);
+  }
+  for (int i = 0; i < 10; ++i) listener.spinOnce(20);  // the last heartbeat
+  EXPECT_EQ(exit_code, 0) << readFile(log);
+  ASSERT_EQ(clouds.size(), 2u) << readFile(log);
+  EXPECT_EQ(clouds[0].num_points, 3);  // three 5 mm voxels
+  EXPECT_EQ(clouds[1].num_points, 1);  // the second point is outside the box
+  EXPECT_EQ(clouds[0].sources, std::vector<std::string>{"SCANNER"});
+  EXPECT_EQ(clouds[1].seq, 1);
+  const auto decoded = node::decodeCloud(clouds[1]);
+  ASSERT_TRUE(decoded);
+  EXPECT_LT((decoded->at(0) - Eigen::Vector3d(0.05, 0.05, 0.05)).norm(), 0.0005);
+  EXPECT_NE(readFile(log).find("2.pcd: not a PCD file (no DATA line in the header)"), std::string::npos)
+      << readFile(log);
+  bool counted = false;
+  for (std::size_t i = 0; i < last.stat_names.size(); ++i)
+    if (last.stat_names[i] == "dropped_unreadable") counted = last.stat_values[i] == 1;
+  EXPECT_TRUE(counted);
+  fs::remove_all(dir);
+  fs::remove(log);
+}
