@@ -32,6 +32,7 @@ std::string checkConfig(double xi, const ProgressConfig& c) {
   if (!positive(c.grid_cell)) return "grid_cell must be > 0 m";
   if (!positive(c.contour_spacing)) return "contour_spacing must be > 0 m";
   if (!positive(c.contour_radius)) return "contour_radius must be > 0 m";
+  if (c.contour_min_points < 1) return "contour_min_points must be >= 1";
   return "";
 }
 
@@ -42,19 +43,19 @@ double quantile(std::vector<double>& v, double q) {
   return v[k];
 }
 
-/// Heights of the contour vertices: the mean band height within `radius`; vertices with no band
-/// point near them are interpolated along the loop from their measured neighbours.
-void liftContour(const Polyline2& loop, const Cloud& band, double radius, double fallback, Cloud& out) {
+/// Heights of the contour vertices: the median band height within `radius` where at least
+/// `min_points` band points are (one or two lone points are often voxels that mix part and powder);
+/// other vertices are interpolated along the loop from their measured neighbours.
+void liftContour(const Polyline2& loop, const Cloud& band, double radius, int min_points, double fallback, Cloud& out) {
   const std::size_t n = loop.size();
-  std::vector<double> z(n, 0.0);
+  std::vector<double> z(n, 0.0), near;
   std::vector<char> known(n, 0);
   const double r2 = radius * radius;
   for (std::size_t i = 0; i < n; ++i) {
-    double sum = 0;
-    int count = 0;
+    near.clear();
     for (const Point& p : band)
-      if ((p.head<2>() - loop[i]).squaredNorm() <= r2) sum += p.z(), ++count;
-    if (count > 0) z[i] = sum / count, known[i] = 1;
+      if ((p.head<2>() - loop[i]).squaredNorm() <= r2) near.push_back(p.z());
+    if (static_cast<int>(near.size()) >= min_points) z[i] = quantile(near, 0.5), known[i] = 1;
   }
   const auto first = std::find(known.begin(), known.end(), 1);
   if (first == known.end()) {
@@ -210,7 +211,7 @@ ProgressEstimate estimateProgress(const Cloud& cad_in_cell, const Cloud& scan, d
 
   // 7. The ordered contour: the band's centre line around the silhouette, at the local powder height.
   const Polyline2 loop = footprint.outerContour(level, config.contour_spacing);
-  liftContour(loop, out.band, config.contour_radius, out.h_pow, out.contour);
+  liftContour(loop, out.band, config.contour_radius, config.contour_min_points, out.h_pow, out.contour);
   out.status = Status::kOk;
   return out;
 }

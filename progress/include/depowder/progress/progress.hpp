@@ -30,7 +30,8 @@ struct ProgressConfig {
   double outlier_floor = 0.005;   ///< m, a band height within this of the median is never an outlier
   double grid_cell = 0.002;       ///< m, raster cell of the footprint (silhouette, holes, contour)
   double contour_spacing = 0.01;  ///< m between vertices of the contour polyline
-  double contour_radius = 0.01;   ///< m; a contour vertex's height = mean band height within this (2-D)
+  double contour_radius = 0.01;   ///< m; a contour vertex's height = median band height within this (2-D)
+  int contour_min_points = 3;     ///< fewer band points within contour_radius: the vertex height is interpolated
 };
 
 enum class Status {
