@@ -132,11 +132,13 @@ void ProgressNode::flush(Frame& frame, std::vector<progress_t>& out) {
   for (auto& [name, part] : parts_) {
     if (frame.done[name]) continue;
     const PoseRecord* best = nullptr;
-    for (const PoseRecord& r : part.poses)  // newest not after the frame, within the staleness limit
-      if (r.utime <= frame.utime && frame.utime - r.utime <= staleness_us) best = &r;
+    for (const PoseRecord& r : part.poses)  // the nearest in time within the staleness limit
+      if (std::llabs(r.utime - frame.utime) <= staleness_us &&
+          (!best || std::llabs(r.utime - frame.utime) < std::llabs(best->utime - frame.utime)))
+        best = &r;
     if (best) {
       out.push_back(
-          process(frame, part, &best->T_cell_part, best->utime == frame.utime ? "" : "pose from an earlier frame"));
+          process(frame, part, &best->T_cell_part, best->utime == frame.utime ? "" : "pose from another frame"));
     } else if (part.poses.empty() && options_.use_initial_pose && part.phase.phase() == Phase::kVacuumBuried) {
       out.push_back(process(frame, part, &part.config.T_cell_part_init, "no PART_POSE yet: initial pose (phase 1)"));
     } else {

@@ -4,8 +4,8 @@
 //
 // Pairing: the tracker publishes PART_POSE with the utime of the POINTS frame it
 // used, after it has processed that frame, so a frame waits up to `pose_wait` for
-// the pose with the same utime. Without one it uses the part's latest pose if it is
-// at most `pose_staleness` older than the frame; with no pose at all yet and the part
+// the pose with the same utime. Without one it uses the part's pose nearest in time
+// if that is at most `pose_staleness` away from the frame; with no pose at all yet and the part
 // in phase 1, the initial pose (paper Sec. III-B: phase 1 assumes the part has not
 // moved); otherwise it publishes NO_POSE.
 #pragma once
