@@ -107,9 +107,11 @@ void BcapEmulator::stop() {
   std::vector<std::shared_ptr<Connection>> conns;
   {
     std::lock_guard<std::mutex> lock(connections_mutex_);
+    for (auto& c : connections_) {
+      if (c->fd >= 0) ::shutdown(c->fd, SHUT_RDWR);
+    }
     conns.swap(connections_);
   }
-  for (auto& c : conns) ::shutdown(c->fd, SHUT_RDWR);
   for (auto& c : conns) {
     if (c->thread.joinable()) c->thread.join();
   }
@@ -202,8 +204,13 @@ void BcapEmulator::serve(std::shared_ptr<Connection> conn) {
       buf.erase(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(d.size));
     }
   }
-  ::shutdown(conn->fd, SHUT_RDWR);
-  ::close(conn->fd);
+  {
+    // Under the lock so that stop() / dropConnections() never touch a closed (reused) fd.
+    std::lock_guard<std::mutex> lock(connections_mutex_);
+    ::shutdown(conn->fd, SHUT_RDWR);
+    ::close(conn->fd);
+    conn->fd = -1;
+  }
   connectionClosed(conn->id);
   conn->done = true;
 }
@@ -266,6 +273,20 @@ bool BcapEmulator::setJoints(const robot::Joints& q) {
   q_ = q;
   qd_ = {};
   return true;
+}
+
+void BcapEmulator::raiseError(const std::string& why) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  stopArmLocked(true);
+  error_pending_ = true;
+  stats_.last_error = "raised: " + why;
+}
+
+void BcapEmulator::dropConnections() {
+  std::lock_guard<std::mutex> lock(connections_mutex_);
+  for (auto& c : connections_) {
+    if (c->fd >= 0) ::shutdown(c->fd, SHUT_RDWR);
+  }
 }
 
 // ---- requests -----------------------------------------------------------------------------------

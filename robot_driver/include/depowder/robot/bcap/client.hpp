@@ -54,6 +54,11 @@ class Client {
   void close();
   bool connected() const { return fd_ >= 0; }
   const ClientConfig& config() const { return config_; }
+  /// Changes the reply timeout and re-sends (the slave loop uses a short timeout and none).
+  void setTimeouts(double reply_timeout_s, int retries) {
+    config_.reply_timeout_s = reply_timeout_s;
+    config_.retries = retries;
+  }
 
   /// Sends one request and waits for its reply. `what` names the call in errors (e.g.
   /// "slvMove"); the function name is used when empty.

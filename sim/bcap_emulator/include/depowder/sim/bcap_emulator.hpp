@@ -97,6 +97,11 @@ class BcapEmulator {
 
   /// Puts the arm somewhere (a simulator reset). Refused (false) while in slave mode.
   bool setJoints(const robot::Joints& q);
+  /// A controller error (e.g. a collision detected by the simulator): the arm stops, the
+  /// motor goes off, the error stays pending until ClearError.
+  void raiseError(const std::string& why);
+  /// Closes every client connection (a cable pulled); the server keeps listening.
+  void dropConnections();
 
   /// Handles one request as the server does (exposed for tests). `connection` identifies the
   /// caller for arm ownership. May block until the next cycle for a sync-mode slvMove, or for

@@ -1,0 +1,142 @@
+// The driver core (no LCM): plans in, slave-mode cycles out, safety in between.
+//
+// Threads: the executable's LCM thread calls submitPlan / plannerHeartbeat / estop / status;
+// one loop thread calls run() (or cycle() repeatedly). In sync slave mode the controller paces
+// the loop (its reply comes at the next 8 ms cycle); otherwise the loop sleeps to absolute
+// CLOCK_MONOTONIC deadlines.
+//
+// Modes (robot_state_t.MODE_*): IDLE connected without a plan; FOLLOWING executing a plan;
+// HOLDING stopped by safety (stale plan, planner heartbeat lost, workspace) until a fresh plan;
+// ESTOPPED halted and motor off until estop(false); DISCONNECTED retrying the controller;
+// FAULT the controller refused something (retried like a lost connection, from where the arm is).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "depowder/robot/kinematics.hpp"
+#include "depowder/robot/rc8_session.hpp"
+#include "depowder/robot/safety.hpp"
+#include "depowder/robot/trajectory.hpp"
+
+namespace depowder::robot {
+
+struct DriverConfig {
+  ArmConfig arm;
+  TrajectoryConfig trajectory;
+  SafetyConfig safety;
+  SessionConfig session;
+  double reconnect_period_s = 0.5;  ///< s between attempts to reach the controller
+};
+
+enum class DriverMode : int { Idle = 0, Following = 1, Holding = 2, EStopped = 3, Disconnected = 4, Fault = 5 };
+
+const char* toString(DriverMode m);
+
+struct DriverStats {
+  std::int64_t exchanges = 0;  ///< slvMove exchanges that succeeded
+  std::int64_t plans_accepted = 0;
+  std::int64_t plans_refused = 0;
+  std::int64_t plans_clipped = 0;     ///< accepted with speeds clipped
+  std::int64_t commands_clipped = 0;  ///< cycles where the command limiter had to clip
+  std::int64_t safety_stops = 0;
+  std::int64_t estops = 0;
+  std::int64_t reconnects = 0;  ///< successful (re)connections after the first
+  std::int64_t faults = 0;      ///< controller error replies in the slave loop
+};
+
+struct DriverStatus {
+  DriverMode mode = DriverMode::Disconnected;
+  std::string reason;
+  Joints q{};                             ///< rad, measured (the controller's reply)
+  Joints q_command{};                     ///< rad, last command sent
+  Joints qd{};                            ///< rad/s, commanded velocity
+  Pose T_cell_nozzle = Pose::Identity();  ///< forward kinematics of q with the tool offset
+  Tool tool = Tool::Off;
+  std::int64_t plan_id = -1;
+  int waypoint_index = -1;
+  std::int64_t plan_utime = 0;
+  std::string last_plan_result;  ///< accepted / refused, with the reason
+  DriverStats stats;
+};
+
+struct PlanResult {
+  bool accepted = false;
+  PlanStatus status = PlanStatus::Empty;
+  std::string reason;
+};
+
+class Driver {
+ public:
+  /// Wall clock in microseconds since the epoch (plan utimes are wall clock); injectable for tests.
+  using WallClock = std::function<std::int64_t()>;
+
+  explicit Driver(DriverConfig config, WallClock wall_clock = {});
+  ~Driver();
+  Driver(const Driver&) = delete;
+  Driver& operator=(const Driver&) = delete;
+
+  // ---- inputs (any thread) ----
+  /// Validates and prepares a plan (IK, workspace, speeds, age); the loop takes it over at its
+  /// next cycle. A refused plan changes nothing.
+  PlanResult submitPlan(const Plan& plan);
+  /// A heartbeat of the planner process arrived now.
+  void plannerHeartbeat();
+  /// stop = true: Robot_Halt at once (on the watch connection, from the caller's thread), then
+  /// motor off; latched. stop = false: reset; the arm is re-enabled where it is, without a plan.
+  void estop(bool stop, const std::string& why);
+
+  // ---- the loop (one thread) ----
+  /// One cycle. Returns true if the controller paced it (a sync-mode slvMove exchange).
+  bool cycle();
+  /// cycle() until `stop` becomes true, pacing with absolute deadlines; then close().
+  void run(const std::atomic<bool>& stop);
+  /// Orderly shutdown of the controller session.
+  void close();
+
+  DriverStatus status() const;
+  /// Called after every successful slvMove exchange with its CLOCK_MONOTONIC time (benchmarks).
+  void setExchangeHook(std::function<void(std::int64_t mono_ns)> hook) { exchange_hook_ = std::move(hook); }
+  /// CLOCK_MONOTONIC time of the last estop(true) call and of the loop noticing it.
+  std::int64_t lastEstopNs() const { return estop_ns_.load(); }
+
+ private:
+  bool connectAndEnable();
+  bool enableFromCurrentPosition();
+  void setMode(DriverMode m, const std::string& reason);
+  bool slaveCycle();
+  void sleepCycle();
+
+  DriverConfig cfg_;
+  WallClock wall_;
+  Rc8Session session_;
+  TrajectoryGenerator generator_;
+  CommandLimiter limiter_;
+
+  // Shared with the input threads.
+  mutable std::mutex mutex_;
+  std::optional<PreparedPlan> incoming_;
+  Plan current_plan_;  ///< raw, for resuming after a reconnect
+  bool have_plan_ = false;
+  std::int64_t heartbeat_ns_ = 0;  ///< CLOCK_MONOTONIC of the last planner heartbeat, 0 never
+  std::atomic<bool> estop_latched_{false};
+  std::atomic<std::int64_t> estop_ns_{0};
+  DriverStatus status_;
+  Joints q_command_shared_{};
+
+  // Loop-thread state.
+  bool connected_once_ = false;
+  bool estop_handled_ = false;
+  bool safety_stopped_ = false;
+  bool was_inside_ = true;
+  std::int64_t next_connect_ns_ = 0;
+  std::int64_t deadline_ns_ = 0;
+  std::function<void(std::int64_t)> exchange_hook_;
+};
+
+}  // namespace depowder::robot

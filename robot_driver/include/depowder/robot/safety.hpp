@@ -1,0 +1,86 @@
+// Safety enforced in the driver whatever the planner sends: the per-cycle command limiter
+// (joint position, speed, acceleration) and the monitor that decides when the arm must stop
+// (stale plan, lost planner heartbeat, nozzle outside the workspace). ESTOP is latched by the
+// driver itself (driver.hpp). Pure: no clock, no IO; times are passed in.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "depowder/robot/kinematics.hpp"
+#include "depowder/robot/trajectory.hpp"
+
+namespace depowder::robot {
+
+struct SafetyConfig {
+  Workspace workspace;                       ///< the nozzle tip must stay inside (cell frame)
+  double workspace_margin = 0.005;           ///< m, tolerance of the per-cycle check of the command
+  double plan_max_age_s = 1.5;               ///< s, a plan whose utime is older than this is stale: stop
+  double planner_heartbeat_timeout_s = 1.0;  ///< s without a planner heartbeat: stop
+  bool require_planner_heartbeat = true;     ///< false: ignore heartbeats (bench tests without a planner)
+  double limit_tolerance = 1.02;  ///< commands up to this factor over a speed/acceleration limit pass unclipped
+};
+
+/// The last line before the wire: every command is clamped to the joint limits and its
+/// finite-difference speed and acceleration to the arm's limits.
+class CommandLimiter {
+ public:
+  CommandLimiter(ArmConfig arm, double cycle_s, double tolerance = 1.02);
+
+  /// The arm is at rest at q (start-up, reconnect).
+  void reset(const Joints& q);
+
+  struct Result {
+    Joints q{};  ///< the command to send
+    bool clipped_position = false;
+    bool clipped_speed = false;
+    bool clipped_acceleration = false;
+    bool clipped() const { return clipped_position || clipped_speed || clipped_acceleration; }
+  };
+  Result apply(const Joints& target);
+
+  const Joints& last() const { return q_; }
+  const Joints& velocity() const { return v_; }
+  std::int64_t clippedCount() const { return clipped_; }
+
+ private:
+  ArmConfig arm_;
+  double dt_;
+  double tol_;
+  Joints q_{};
+  Joints v_{};
+  std::int64_t clipped_ = 0;
+};
+
+enum class StopReason {
+  None,
+  PlanStale,      ///< the executing plan is older than plan_max_age_s
+  HeartbeatLost,  ///< no planner heartbeat for planner_heartbeat_timeout_s
+  Workspace,      ///< the commanded nozzle left the workspace box
+};
+
+const char* toString(StopReason r);
+
+struct SafetyInputs {
+  bool following = false;                            ///< a plan is being executed
+  std::int64_t now_utime = 0;                        ///< wall clock, us (plan utimes are wall clock)
+  std::int64_t plan_utime = 0;                       ///< utime of the executing plan
+  double heartbeat_age_s = 1e9;                      ///< s since the last planner heartbeat (1e9: never)
+  Eigen::Vector3d nozzle = Eigen::Vector3d::Zero();  ///< commanded nozzle position, cell frame
+  bool was_inside = true;  ///< the previous command was inside (leaving is what stops; an arm that
+                           ///< starts outside may move back in)
+};
+
+struct SafetyVerdict {
+  StopReason stop = StopReason::None;
+  std::string reason;  ///< human-readable, with the figures
+};
+
+/// Whether the arm must come to a controlled stop this cycle.
+SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in);
+
+/// Whether a newly received plan may be executed at all (fresh enough, planner alive).
+SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std::int64_t plan_utime,
+                           double heartbeat_age_s);
+
+}  // namespace depowder::robot

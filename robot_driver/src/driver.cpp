@@ -1,0 +1,365 @@
+#include "depowder/robot/driver.hpp"
+
+#include <cerrno>
+#include <chrono>
+#include <ctime>
+
+namespace depowder::robot {
+namespace {
+
+std::int64_t monoNs() { return bcap::monotonicNs(); }
+
+void sleepUntil(std::int64_t t) {
+  timespec ts{static_cast<time_t>(t / 1000000000LL), static_cast<long>(t % 1000000000LL)};
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+
+std::int64_t systemUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+const char* toString(DriverMode m) {
+  switch (m) {
+    case DriverMode::Idle:
+      return "idle";
+    case DriverMode::Following:
+      return "following";
+    case DriverMode::Holding:
+      return "holding";
+    case DriverMode::EStopped:
+      return "estopped";
+    case DriverMode::Disconnected:
+      return "disconnected";
+    case DriverMode::Fault:
+      return "fault";
+  }
+  return "?";
+}
+
+Driver::Driver(DriverConfig config, WallClock wall_clock)
+    : cfg_(std::move(config)),
+      wall_(wall_clock ? std::move(wall_clock) : WallClock(systemUtime)),
+      session_(cfg_.session),
+      generator_(cfg_.arm, cfg_.trajectory),
+      limiter_(cfg_.arm, cfg_.trajectory.cycle_s, cfg_.safety.limit_tolerance) {
+  status_.mode = DriverMode::Disconnected;
+  status_.reason = "not connected yet";
+  q_command_shared_ = cfg_.arm.q_home;
+}
+
+Driver::~Driver() { session_.abort(); }
+
+// ---- inputs ---------------------------------------------------------------------------------------
+
+PlanResult Driver::submitPlan(const Plan& plan) {
+  PlanResult res;
+  Joints q_start;
+  double hb_age;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    q_start = q_command_shared_;
+    hb_age = heartbeat_ns_ == 0 ? 1e9 : static_cast<double>(monoNs() - heartbeat_ns_) * 1e-9;
+  }
+  auto refuse = [&](PlanStatus s, const std::string& why) {
+    res.accepted = false;
+    res.status = s;
+    res.reason = why;
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++status_.stats.plans_refused;
+    status_.last_plan_result = "plan " + std::to_string(plan.id) + " refused: " + why;
+    return res;
+  };
+  if (estop_latched_) return refuse(PlanStatus::Empty, "ESTOP is active (reset it first)");
+  const SafetyVerdict fresh = checkNewPlan(cfg_.safety, wall_(), plan.utime, hb_age);
+  if (fresh.stop != StopReason::None) return refuse(PlanStatus::Empty, fresh.reason);
+
+  PreparedPlan pp = preparePlan(cfg_.arm, cfg_.trajectory, cfg_.safety.workspace, plan, q_start);
+  if (!pp.usable() && pp.status != PlanStatus::Empty)
+    return refuse(pp.status, std::string(toString(pp.status)) + ": " + pp.reason);
+  res.accepted = true;
+  res.status = pp.status;
+  res.reason = pp.reason;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++status_.stats.plans_accepted;
+  if (pp.status == PlanStatus::Clipped) ++status_.stats.plans_clipped;
+  status_.last_plan_result =
+      "plan " + std::to_string(plan.id) + " " + toString(pp.status) + (pp.reason.empty() ? "" : ": " + pp.reason);
+  incoming_ = std::move(pp);
+  current_plan_ = plan;
+  have_plan_ = !plan.waypoints.empty();
+  return res;
+}
+
+void Driver::plannerHeartbeat() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  heartbeat_ns_ = monoNs();
+}
+
+void Driver::estop(bool stop, const std::string& why) {
+  if (stop) {
+    const bool first = !estop_latched_.exchange(true);
+    if (first) estop_ns_ = monoNs();
+    // Halt at once from this thread: the watch connection never waits behind a slvMove.
+    if (session_.isOpen()) session_.halt();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (first) ++status_.stats.estops;
+    status_.mode = DriverMode::EStopped;
+    status_.reason = "ESTOP: " + why;
+    incoming_.reset();
+    have_plan_ = false;
+  } else {
+    estop_latched_ = false;
+  }
+}
+
+DriverStatus Driver::status() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return status_;
+}
+
+void Driver::setMode(DriverMode m, const std::string& reason) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  status_.mode = m;
+  status_.reason = reason;
+}
+
+// ---- the loop -------------------------------------------------------------------------------------
+
+bool Driver::enableFromCurrentPosition() {
+  // Whatever happened before, start from where the arm really is: no jump.
+  session_.clearError();
+  Joints q;
+  SessionResult r = session_.readJoints(&q);
+  if (!r.ok) {
+    setMode(r.connectionLost() ? DriverMode::Disconnected : DriverMode::Fault, r.error);
+    if (r.connectionLost()) session_.abort();
+    return false;
+  }
+  generator_.reset(q);
+  limiter_.reset(q);
+  was_inside_ = true;
+  safety_stopped_ = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    q_command_shared_ = q;
+    status_.q = q;
+    status_.q_command = q;
+    status_.qd = {};
+    status_.T_cell_nozzle = forwardNozzle(cfg_.arm, q);
+  }
+  if (estop_latched_) {
+    session_.motorOff();
+    estop_handled_ = true;
+    setMode(DriverMode::EStopped, "ESTOP active; waiting for a reset");
+    return true;
+  }
+  r = session_.enable();
+  if (!r.ok) {
+    setMode(r.connectionLost() ? DriverMode::Disconnected : DriverMode::Fault, r.error);
+    if (r.connectionLost()) session_.abort();
+    return false;
+  }
+  session_.setTool(Tool::Off, true);
+  estop_handled_ = false;
+  // Resume the current plan (if still fresh) from its next waypoint, from where the arm is.
+  Plan resume;
+  bool have = false;
+  int from = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (have_plan_ && !incoming_) {
+      resume = current_plan_;
+      have = true;
+      from = std::max(0, status_.waypoint_index);
+    }
+  }
+  if (have) {
+    const PreparedPlan pp = preparePlan(cfg_.arm, cfg_.trajectory, cfg_.safety.workspace, resume, q, from);
+    if (pp.usable()) {
+      generator_.setPlan(pp);
+      setMode(DriverMode::Following, "resuming plan " + std::to_string(resume.id) + " from waypoint " +
+                                         std::to_string(from) + " where the arm is");
+      return true;
+    }
+  }
+  setMode(DriverMode::Idle, "connected");
+  return true;
+}
+
+bool Driver::connectAndEnable() {
+  const std::int64_t now = monoNs();
+  if (now < next_connect_ns_) return false;
+  next_connect_ns_ = now + static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9);
+  const SessionResult r = session_.open();
+  if (!r.ok) {
+    setMode(DriverMode::Disconnected, "controller unreachable: " + r.error);
+    return false;
+  }
+  if (connected_once_) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++status_.stats.reconnects;
+  }
+  connected_once_ = true;
+  return enableFromCurrentPosition();
+}
+
+void Driver::sleepCycle() {
+  const std::int64_t cycle = static_cast<std::int64_t>(cfg_.trajectory.cycle_s * 1e9);
+  const std::int64_t now = monoNs();
+  if (deadline_ns_ == 0 || deadline_ns_ < now - cycle) deadline_ns_ = now;
+  deadline_ns_ += cycle;
+  sleepUntil(deadline_ns_);
+}
+
+bool Driver::cycle() {
+  // 1. Controller connection.
+  if (!session_.isOpen()) {
+    connectAndEnable();
+    return false;
+  }
+  // 2. ESTOP: halted already by estop(); switch the motor off once, then wait for the reset.
+  if (estop_latched_) {
+    if (!estop_handled_) {
+      session_.halt();
+      session_.setTool(Tool::Off, true);
+      session_.motorOff();
+      generator_.reset(limiter_.last());
+      estop_handled_ = true;
+      std::lock_guard<std::mutex> lock(mutex_);
+      status_.mode = DriverMode::EStopped;
+      status_.qd = {};
+      status_.tool = Tool::Off;
+    }
+    return false;
+  }
+  if (estop_handled_) {
+    // Reset: re-enable where the arm is, without a plan.
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      have_plan_ = false;
+      incoming_.reset();
+      status_.plan_id = -1;
+      status_.waypoint_index = -1;
+    }
+    if (!enableFromCurrentPosition()) return false;
+    setMode(DriverMode::Idle, "ESTOP reset");
+    return false;
+  }
+  // 3. Fault recovery (controller refused something): clear, re-read, re-enable.
+  if (!session_.inSlaveMode()) {
+    const std::int64_t now = monoNs();
+    if (now < next_connect_ns_) return false;
+    next_connect_ns_ = now + static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9);
+    enableFromCurrentPosition();
+    return false;
+  }
+  return slaveCycle();
+}
+
+bool Driver::slaveCycle() {
+  // 4. Take over a new plan.
+  std::optional<PreparedPlan> incoming;
+  double hb_age;
+  std::int64_t plan_utime;
+  bool have_plan;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    incoming.swap(incoming_);
+    hb_age = heartbeat_ns_ == 0 ? 1e9 : static_cast<double>(monoNs() - heartbeat_ns_) * 1e-9;
+    plan_utime = current_plan_.utime;
+    have_plan = have_plan_;
+  }
+  if (incoming) {
+    generator_.setPlan(*incoming);
+    safety_stopped_ = false;
+  }
+
+  // 5. Safety: stale plan, planner heartbeat, workspace -> controlled stop.
+  SafetyInputs in;
+  in.following = have_plan && !safety_stopped_;
+  in.now_utime = wall_();
+  in.plan_utime = plan_utime;
+  in.heartbeat_age_s = hb_age;
+  in.nozzle = forwardNozzle(cfg_.arm, limiter_.last()).translation();
+  in.was_inside = was_inside_;
+  const SafetyVerdict verdict = checkSafety(cfg_.safety, in);
+  if (verdict.stop != StopReason::None) {
+    generator_.stop();
+    safety_stopped_ = true;
+    std::lock_guard<std::mutex> lock(mutex_);
+    have_plan_ = false;
+    ++status_.stats.safety_stops;
+    // Reported as HOLDING once the arm is at rest (step 8); FOLLOWING while it brakes.
+    status_.reason = std::string("controlled stop: ") + verdict.reason;
+  }
+
+  // 6. Next command, limited.
+  const TrajectorySample sample = generator_.step();
+  const CommandLimiter::Result cmd = limiter_.apply(sample.q);
+  was_inside_ =
+      cfg_.safety.workspace.contains(forwardNozzle(cfg_.arm, cmd.q).translation(), cfg_.safety.workspace_margin);
+
+  // 7. Tool, then the slave exchange.
+  SessionResult r = session_.setTool(sample.tool);
+  Joints measured{};
+  if (r.ok) r = session_.move(cmd.q, &measured);
+  const std::int64_t t_done = monoNs();
+  if (!r.ok) {
+    const bool lost = r.connectionLost();
+    if (lost) session_.abort();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!lost) ++status_.stats.faults;
+    status_.mode = lost ? DriverMode::Disconnected : DriverMode::Fault;
+    status_.reason = (lost ? "controller connection lost: " : "controller error: ") + r.error;
+    status_.qd = {};
+    return false;
+  }
+  if (exchange_hook_) exchange_hook_(t_done);
+
+  // 8. Status.
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++status_.stats.exchanges;
+  if (cmd.clipped()) ++status_.stats.commands_clipped;
+  q_command_shared_ = cmd.q;
+  status_.q = measured;
+  status_.q_command = cmd.q;
+  status_.qd = limiter_.velocity();
+  status_.T_cell_nozzle = forwardNozzle(cfg_.arm, measured);
+  status_.tool = sample.tool;
+  status_.plan_id = sample.plan_id;
+  status_.waypoint_index = sample.waypoint_index;
+  status_.plan_utime = plan_utime;
+  if (safety_stopped_) {
+    status_.mode = sample.moving ? DriverMode::Following : DriverMode::Holding;
+  } else if (sample.moving || (have_plan_ && !generator_.finished())) {
+    status_.mode = DriverMode::Following;
+    status_.reason = "following plan " + std::to_string(sample.plan_id);
+  } else {
+    status_.mode = DriverMode::Idle;
+    status_.reason = generator_.finished() ? "plan " + std::to_string(sample.plan_id) + " done" : "no plan";
+  }
+  return (cfg_.session.slave_mode & 0x200) != 0;
+}
+
+void Driver::run(const std::atomic<bool>& stop) {
+  while (!stop) {
+    const bool paced = cycle();
+    if (paced) {
+      deadline_ns_ = monoNs();  // the controller's cycle is the clock
+    } else {
+      sleepCycle();
+    }
+  }
+  close();
+}
+
+void Driver::close() {
+  if (session_.isOpen()) session_.close();
+  setMode(DriverMode::Disconnected, "driver stopped");
+}
+
+}  // namespace depowder::robot

@@ -1,0 +1,238 @@
+#include "depowder/robot/rc8_session.hpp"
+
+#include <cmath>
+
+namespace depowder::robot {
+
+using bcap::CallResult;
+using bcap::CallStatus;
+using bcap::Variant;
+
+namespace {
+constexpr double kDeg = 180.0 / 3.14159265358979323846;
+
+// Joint angles (rad) from a controller position array (deg, 6..8 elements).
+bool jointsFrom(const CallResult& r, Joints* q, std::string* why) {
+  if (r.values.empty()) {
+    *why = "reply without a position";
+    return false;
+  }
+  const auto v = r.values[0].asReals();
+  if (!v || v->size() < 6) {
+    *why = "reply position is not an array of at least 6 numbers";
+    return false;
+  }
+  for (int i = 0; i < 6; ++i) {
+    if (!std::isfinite((*v)[i])) {
+      *why = "reply position is not finite";
+      return false;
+    }
+    (*q)[i] = (*v)[i] / kDeg;
+  }
+  return true;
+}
+}  // namespace
+
+SessionResult SessionResult::from(const CallResult& r) {
+  SessionResult s;
+  s.ok = r.ok();
+  s.status = r.status;
+  s.hresult = r.hresult;
+  s.error = r.error;
+  return s;
+}
+
+bool SessionResult::connectionLost() const {
+  return !ok &&
+         (status == CallStatus::Disconnected || status == CallStatus::Timeout || status == CallStatus::NotConnected ||
+          status == CallStatus::ConnectFailed || status == CallStatus::ProtocolError);
+}
+
+Rc8Session::Rc8Session(SessionConfig config) : cfg_(std::move(config)), act_(cfg_.client), watch_(cfg_.client) {}
+
+Rc8Session::~Rc8Session() { abort(); }
+
+SessionResult Rc8Session::connectChannel(bcap::Client& c, std::uint32_t* controller, std::uint32_t* robot) {
+  CallResult r = c.connect();
+  if (!r.ok()) return SessionResult::from(r);
+  r = c.serviceStart("");
+  if (!r.ok()) return SessionResult::from(r);
+  r = c.controllerConnect(cfg_.controller_name, cfg_.provider, cfg_.machine, cfg_.options);
+  if (!r.ok()) return SessionResult::from(r);
+  if (!r.handle()) {
+    SessionResult s;
+    s.ok = false;
+    s.status = CallStatus::ProtocolError;
+    s.error = "Controller_Connect: reply without a handle";
+    return s;
+  }
+  *controller = *r.handle();
+  r = c.controllerGetRobot(*controller, cfg_.robot_name);
+  if (!r.ok()) return SessionResult::from(r);
+  if (!r.handle()) {
+    SessionResult s;
+    s.ok = false;
+    s.status = CallStatus::ProtocolError;
+    s.error = "Controller_GetRobot: reply without a handle";
+    return s;
+  }
+  *robot = *r.handle();
+  return {};
+}
+
+SessionResult Rc8Session::open() {
+  abort();
+  SessionResult s = connectChannel(act_, &controller_, &robot_);
+  if (!s.ok) return s;
+  {
+    std::lock_guard<std::mutex> lock(watch_mutex_);
+    s = connectChannel(watch_, &watch_controller_, &watch_robot_);
+  }
+  if (!s.ok) {
+    abort();
+    return s;
+  }
+  CallResult r = act_.controllerGetVariable(controller_, cfg_.vacuum_variable);
+  if (!r.ok() || !r.handle()) {
+    abort();
+    return SessionResult::from(r);
+  }
+  vacuum_ = *r.handle();
+  r = act_.controllerGetVariable(controller_, cfg_.air_variable);
+  if (!r.ok() || !r.handle()) {
+    abort();
+    return SessionResult::from(r);
+  }
+  air_ = *r.handle();
+  open_ = true;
+  slave_ = false;
+  tool_ = -1;
+  return {};
+}
+
+SessionResult Rc8Session::readJoints(Joints* q) {
+  const CallResult r = act_.robotExecute(robot_, "CurJnt");
+  if (!r.ok()) return SessionResult::from(r);
+  SessionResult s;
+  if (!jointsFrom(r, q, &s.error)) {
+    s.ok = false;
+    s.status = CallStatus::ProtocolError;
+    s.error = "CurJnt: " + s.error;
+  }
+  return s;
+}
+
+SessionResult Rc8Session::clearError() {
+  return SessionResult::from(act_.controllerExecute(controller_, "ClearError"));
+}
+
+SessionResult Rc8Session::enable() {
+  CallResult r = act_.robotExecute(robot_, "Motor", Variant::i4(1));
+  if (!r.ok()) return SessionResult::from(r);
+  motor_ = true;
+  r = act_.robotExecute(robot_, "TakeArm", Variant::i4Array({0, 1}));
+  if (!r.ok()) return SessionResult::from(r);
+  arm_taken_ = true;
+  r = act_.robotExecute(robot_, "slvChangeMode", Variant::i4(cfg_.slave_mode));
+  if (!r.ok()) return SessionResult::from(r);
+  slave_ = true;
+  // Slave cycle: a short reply timeout and no re-send (a re-sent command would be late anyway).
+  act_.setTimeouts(cfg_.slave_reply_timeout_s, 0);
+  return {};
+}
+
+SessionResult Rc8Session::move(const Joints& target, Joints* measured) {
+  std::vector<double> deg(8, 0.0);
+  for (int i = 0; i < 6; ++i) deg[i] = target[i] * kDeg;
+  const CallResult r = act_.robotExecute(robot_, "slvMove", Variant::r8Array(deg));
+  if (!r.ok()) {
+    if (r.status == CallStatus::ControllerError) slave_ = false;  // the controller stopped the arm
+    return SessionResult::from(r);
+  }
+  SessionResult s;
+  if (!jointsFrom(r, measured, &s.error)) {
+    s.ok = false;
+    s.status = CallStatus::ProtocolError;
+    s.error = "slvMove: " + s.error;
+  }
+  return s;
+}
+
+SessionResult Rc8Session::setTool(Tool tool, bool force) {
+  const int t = static_cast<int>(tool);
+  if (!force && t == tool_) return {};
+  CallResult r = act_.variablePutValue(vacuum_, Variant::boolean(tool == Tool::Vacuum));
+  if (!r.ok()) return SessionResult::from(r);
+  r = act_.variablePutValue(air_, Variant::boolean(tool == Tool::Air));
+  if (!r.ok()) return SessionResult::from(r);
+  tool_ = t;
+  return {};
+}
+
+SessionResult Rc8Session::halt() {
+  std::lock_guard<std::mutex> lock(watch_mutex_);
+  const CallResult r = watch_.robotHalt(watch_robot_);
+  return SessionResult::from(r);
+}
+
+SessionResult Rc8Session::motorOff() {
+  act_.setTimeouts(cfg_.client.reply_timeout_s, cfg_.client.retries);
+  if (slave_) act_.robotExecute(robot_, "slvChangeMode", Variant::i4(0));
+  slave_ = false;
+  const CallResult r = act_.robotExecute(robot_, "Motor", Variant::i4(0));
+  if (r.ok()) motor_ = false;
+  return SessionResult::from(r);
+}
+
+SessionResult Rc8Session::close() {
+  SessionResult first;
+  auto keep = [&](const CallResult& r) {
+    if (!r.ok() && first.ok) first = SessionResult::from(r);
+  };
+  if (act_.connected()) {
+    act_.setTimeouts(cfg_.client.reply_timeout_s, cfg_.client.retries);
+    if (tool_ != 0 && vacuum_ != 0) {
+      keep(act_.variablePutValue(vacuum_, Variant::boolean(false)));
+      keep(act_.variablePutValue(air_, Variant::boolean(false)));
+    }
+    if (slave_) keep(act_.robotExecute(robot_, "slvChangeMode", Variant::i4(0)));
+    slave_ = false;
+    if (arm_taken_) keep(act_.robotExecute(robot_, "GiveArm"));
+    arm_taken_ = false;
+    if (motor_) keep(act_.robotExecute(robot_, "Motor", Variant::i4(0)));
+    motor_ = false;
+    if (vacuum_) keep(act_.variableRelease(vacuum_));
+    if (air_) keep(act_.variableRelease(air_));
+    if (robot_) keep(act_.robotRelease(robot_));
+    if (controller_) keep(act_.controllerDisconnect(controller_));
+    keep(act_.serviceStop());
+  }
+  {
+    std::lock_guard<std::mutex> lock(watch_mutex_);
+    if (watch_.connected()) {
+      if (watch_robot_) keep(watch_.robotRelease(watch_robot_));
+      if (watch_controller_) keep(watch_.controllerDisconnect(watch_controller_));
+      keep(watch_.serviceStop());
+    }
+  }
+  abort();
+  return first;
+}
+
+void Rc8Session::abort() {
+  act_.close();
+  {
+    std::lock_guard<std::mutex> lock(watch_mutex_);
+    watch_.close();
+  }
+  act_.setTimeouts(cfg_.client.reply_timeout_s, cfg_.client.retries);
+  controller_ = robot_ = vacuum_ = air_ = 0;
+  watch_controller_ = watch_robot_ = 0;
+  open_ = false;
+  slave_ = false;
+  motor_ = false;
+  arm_taken_ = false;
+  tool_ = -1;
+}
+
+}  // namespace depowder::robot

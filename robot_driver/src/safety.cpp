@@ -1,0 +1,102 @@
+#include "depowder/robot/safety.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace depowder::robot {
+
+CommandLimiter::CommandLimiter(ArmConfig arm, double cycle_s, double tolerance)
+    : arm_(std::move(arm)), dt_(cycle_s), tol_(tolerance) {
+  reset(arm_.q_home);
+}
+
+void CommandLimiter::reset(const Joints& q) {
+  q_ = q;
+  v_ = {};
+}
+
+CommandLimiter::Result CommandLimiter::apply(const Joints& target) {
+  Result r;
+  for (int i = 0; i < 6; ++i) {
+    double t = target[i];
+    if (!std::isfinite(t)) {
+      t = q_[i];
+      r.clipped_position = true;
+    }
+    if (t < arm_.q_min[i] || t > arm_.q_max[i]) {
+      t = std::clamp(t, arm_.q_min[i], arm_.q_max[i]);
+      r.clipped_position = true;
+    }
+    double v = (t - q_[i]) / dt_;
+    const double vmax = arm_.qd_max[i] * tol_;
+    const double dv = arm_.qdd_max[i] * tol_ * dt_;
+    if (std::abs(v) > vmax) {
+      v = std::clamp(v, -vmax, vmax);
+      r.clipped_speed = true;
+    }
+    if (v > v_[i] + dv || v < v_[i] - dv) {
+      v = std::clamp(v, v_[i] - dv, v_[i] + dv);
+      r.clipped_acceleration = true;
+    }
+    // The limited step must itself stay within the joint limits.
+    double q = std::clamp(q_[i] + v * dt_, arm_.q_min[i], arm_.q_max[i]);
+    v_[i] = (q - q_[i]) / dt_;
+    q_[i] = q;
+    r.q[i] = q;
+  }
+  if (r.clipped()) ++clipped_;
+  return r;
+}
+
+const char* toString(StopReason r) {
+  switch (r) {
+    case StopReason::None:
+      return "none";
+    case StopReason::PlanStale:
+      return "plan stale";
+    case StopReason::HeartbeatLost:
+      return "planner heartbeat lost";
+    case StopReason::Workspace:
+      return "nozzle outside the workspace";
+  }
+  return "?";
+}
+
+SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std::int64_t plan_utime,
+                           double heartbeat_age_s) {
+  SafetyVerdict v;
+  char buf[160];
+  const double age = static_cast<double>(now_utime - plan_utime) * 1e-6;
+  if (age > cfg.plan_max_age_s) {
+    std::snprintf(buf, sizeof buf, "plan is %.3f s old (limit %.3f s)", age, cfg.plan_max_age_s);
+    v.stop = StopReason::PlanStale;
+    v.reason = buf;
+  } else if (cfg.require_planner_heartbeat && heartbeat_age_s > cfg.planner_heartbeat_timeout_s) {
+    if (heartbeat_age_s >= 1e9)
+      std::snprintf(buf, sizeof buf, "no planner heartbeat received yet");
+    else
+      std::snprintf(buf, sizeof buf, "last planner heartbeat %.3f s ago (limit %.3f s)", heartbeat_age_s,
+                    cfg.planner_heartbeat_timeout_s);
+    v.stop = StopReason::HeartbeatLost;
+    v.reason = buf;
+  }
+  return v;
+}
+
+SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in) {
+  SafetyVerdict v;
+  if (!in.following) return v;
+  v = checkNewPlan(cfg, in.now_utime, in.plan_utime, in.heartbeat_age_s);
+  if (v.stop != StopReason::None) return v;
+  if (in.was_inside && !cfg.workspace.contains(in.nozzle, cfg.workspace_margin)) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "commanded nozzle at (%.3f, %.3f, %.3f) m is outside the workspace box",
+                  in.nozzle.x(), in.nozzle.y(), in.nozzle.z());
+    v.stop = StopReason::Workspace;
+    v.reason = buf;
+  }
+  return v;
+}
+
+}  // namespace depowder::robot

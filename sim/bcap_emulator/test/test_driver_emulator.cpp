@@ -1,0 +1,300 @@
+// The driver core against the b-CAP emulator over loopback TCP, as in the cell: plans are
+// executed in slave mode, refused or clipped when unsafe, stopped when stale or when the
+// planner's heartbeat is lost, halted at once by ESTOP, and resumed without a jump after a
+// lost connection or a controller error.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "depowder/robot/driver.hpp"
+#include "depowder/sim/bcap_emulator.hpp"
+
+using namespace depowder;
+using namespace depowder::robot;
+using namespace std::chrono_literals;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::int64_t wallUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Nozzle pointing down, turned like the home pose (no J6 half-turn on the way in).
+Pose down(double x, double y, double z) { return makePoseRpy({x, y, z}, 0, kPi, 0); }
+
+ArmConfig cellArm() {
+  ArmConfig arm;
+  arm.T_cell_base = makePoseRpy({-0.55, 0.0, 0.0}, 0, 0, 0);
+  arm.T_flange_nozzle = makePoseRpy({0.0, 0.0, 0.129}, 0, 0, 0);
+  return arm;
+}
+
+Plan linePlan(std::int64_t id, const std::vector<Eigen::Vector3d>& pts, double speed, Tool tool = Tool::Vacuum) {
+  Plan p;
+  p.id = id;
+  p.utime = wallUtime();
+  for (const auto& x : pts) p.waypoints.push_back({down(x.x(), x.y(), x.z()), tool, speed});
+  return p;
+}
+
+// Emulator + driver loop thread + a planner heartbeat thread, all in this process.
+class Rig {
+ public:
+  explicit Rig(std::function<void(DriverConfig&)> tune = {}) {
+    sim::BcapEmulatorConfig ecfg;
+    ecfg.port = 0;
+    ecfg.motor_on_time_s = 0.02;
+    emu_ = std::make_unique<sim::BcapEmulator>(ecfg);
+    std::string err;
+    if (!emu_->start(&err)) throw std::runtime_error(err);
+    cfg_.arm = cellArm();
+    cfg_.session.client.port = emu_->port();
+    cfg_.reconnect_period_s = 0.1;
+    cfg_.safety.plan_max_age_s = 30.0;  // tests about staleness set their own
+    cfg_.safety.planner_heartbeat_timeout_s = 0.5;
+    if (tune) tune(cfg_);
+    // The driver's wall clock, which the tests can move forward to age a plan.
+    driver_ = std::make_unique<Driver>(cfg_, [this] { return wallUtime() + wall_offset_us_.load(); });
+    driver_->setExchangeHook([this](std::int64_t) {
+      std::lock_guard<std::mutex> lock(m_);
+      trace_.push_back(emu_->joints().q);
+    });
+    driver_->plannerHeartbeat();
+    loop_ = std::thread([this] { driver_->run(stop_); });
+    hb_ = std::thread([this] {
+      while (!stop_) {
+        if (heartbeats_) driver_->plannerHeartbeat();
+        std::this_thread::sleep_for(50ms);
+      }
+    });
+  }
+  ~Rig() {
+    stop_ = true;
+    loop_.join();
+    hb_.join();
+  }
+  bool waitFor(const std::function<bool()>& pred, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) {
+      if (pred()) return true;
+      std::this_thread::sleep_for(2ms);
+    }
+    return pred();
+  }
+  bool waitMode(DriverMode m, double seconds) {
+    return waitFor([&] { return driver_->status().mode == m; }, seconds);
+  }
+  // Largest per-cycle joint step the emulator executed, relative to qd_max * cycle.
+  double maxStepRatio() {
+    std::lock_guard<std::mutex> lock(m_);
+    double worst = 0;
+    for (std::size_t k = 1; k < trace_.size(); ++k)
+      for (int i = 0; i < 6; ++i)
+        worst = std::max(worst, std::abs(trace_[k][i] - trace_[k - 1][i]) / (cfg_.arm.qd_max[i] * 0.008));
+    return worst;
+  }
+  double maxNozzleStep() {
+    std::lock_guard<std::mutex> lock(m_);
+    double worst = 0;
+    for (std::size_t k = 1; k < trace_.size(); ++k)
+      worst = std::max(worst,
+                       translationDistance(forwardNozzle(cfg_.arm, trace_[k]), forwardNozzle(cfg_.arm, trace_[k - 1])));
+    return worst;
+  }
+
+  sim::BcapEmulator& emu() { return *emu_; }
+  Driver& driver() { return *driver_; }
+  const DriverConfig& cfg() const { return cfg_; }
+  std::atomic<bool> heartbeats_{true};
+  std::atomic<std::int64_t> wall_offset_us_{0};
+  bool atNozzle(const Eigen::Vector3d& p, double tol = 1e-9) {
+    return (forwardNozzle(cfg_.arm, emu_->joints().q).translation() - p).norm() < tol;
+  }
+
+ private:
+  DriverConfig cfg_;
+  std::unique_ptr<sim::BcapEmulator> emu_;
+  std::unique_ptr<Driver> driver_;
+  std::atomic<bool> stop_{false};
+  std::thread loop_, hb_;
+  std::mutex m_;
+  std::vector<Joints> trace_;
+};
+
+Eigen::Vector3d emuNozzle(Rig& rig) { return forwardNozzle(rig.cfg().arm, rig.emu().joints().q).translation(); }
+
+}  // namespace
+
+TEST(DriverEmulator, FollowsAPlanToItsEnd) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0)) << rig.driver().status().reason;
+  EXPECT_TRUE(rig.emu().joints().slave_mode);
+  const auto res = rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.1, -0.05, 0.15}}, 0.2));
+  ASSERT_TRUE(res.accepted) << res.reason;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  ASSERT_TRUE(rig.waitFor([&] { return rig.emu().tool().vacuum; }, 1.0));
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 5.0)) << rig.driver().status().reason;
+  // The emulated arm is at the goal (1e-9 m: the last command is the goal's IK solution).
+  EXPECT_LT((emuNozzle(rig) - Eigen::Vector3d(0.1, -0.05, 0.15)).norm(), 1e-9);
+  const DriverStatus st = rig.driver().status();
+  EXPECT_EQ(st.plan_id, 1);
+  EXPECT_EQ(st.waypoint_index, 2);
+  EXPECT_LT((st.T_cell_nozzle.translation() - Eigen::Vector3d(0.1, -0.05, 0.15)).norm(), 1e-9);
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  EXPECT_EQ(rig.emu().stats().limit_errors, 0);
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+  EXPECT_LE(rig.maxNozzleStep(), 0.2 * 0.008 * 1.01);
+}
+
+TEST(DriverEmulator, RefusesOrClipsUnsafePlans) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  const Joints q0 = rig.emu().joints().q;
+  // Outside the workspace box: refused, nothing moves.
+  auto res = rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.2}, {0.35, 0.0, 0.1}}, 0.05));
+  EXPECT_FALSE(res.accepted);
+  EXPECT_EQ(res.status, PlanStatus::OutsideWorkspace);
+  std::this_thread::sleep_for(100ms);
+  EXPECT_EQ(rig.emu().joints().q, q0);
+  EXPECT_EQ(rig.driver().status().mode, DriverMode::Idle);
+  // Stale on arrival: refused.
+  Plan old = linePlan(2, {{0.0, 0.0, 0.2}}, 0.05);
+  old.utime -= 60'000'000;  // older than plan_max_age_s
+  res = rig.driver().submitPlan(old);
+  EXPECT_FALSE(res.accepted);
+  EXPECT_NE(res.reason.find("old"), std::string::npos) << res.reason;
+  // Too fast (3 m/s): clipped to max_nozzle_speed, and the arm never goes faster.
+  res = rig.driver().submitPlan(linePlan(3, {{0.15, 0.1, 0.05}, {-0.15, -0.1, 0.25}}, 3.0));
+  ASSERT_TRUE(res.accepted);
+  EXPECT_EQ(res.status, PlanStatus::Clipped);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 10.0)) << rig.driver().status().reason;
+  const double vmax = rig.cfg().trajectory.max_nozzle_speed;
+  EXPECT_LE(rig.maxNozzleStep(), vmax * 0.008 * 1.01);
+  EXPECT_GT(rig.maxNozzleStep(), vmax * 0.008 * 0.5);
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  const auto st = rig.driver().status().stats;
+  EXPECT_EQ(st.plans_refused, 2);
+  EXPECT_EQ(st.plans_clipped, 1);
+}
+
+TEST(DriverEmulator, StalePlanBringsAControlledStop) {
+  Rig rig([](DriverConfig& c) { c.safety.plan_max_age_s = 1.0; });
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.15, 0.1, 0.1}}, 0.05)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  std::this_thread::sleep_for(300ms);
+  EXPECT_EQ(rig.driver().status().mode, DriverMode::Following);  // 0.3 s old: fine
+  // The plan is now 1.3 s old for the driver.
+  rig.wall_offset_us_ = 1'000'000;
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(rig.waitMode(DriverMode::Holding, 1.0)) << rig.driver().status().reason;
+  const double t_stop = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LE(t_stop, 0.3);  // one cycle to notice, then braking from the nozzle's speed
+  EXPECT_NE(rig.driver().status().reason.find("old"), std::string::npos) << rig.driver().status().reason;
+  // HOLDING means at rest: the emulated arm no longer moves, the tool is off.
+  const Joints q1 = rig.emu().joints().q;
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(rig.emu().joints().q, q1);
+  EXPECT_FALSE(rig.emu().tool().vacuum);
+  EXPECT_FALSE(rig.atNozzle({0.15, 0.1, 0.1}, 0.05));
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+  // A fresh plan moves on from there.
+  EXPECT_FALSE(rig.driver().submitPlan(linePlan(2, {{0.0, 0.0, 0.25}}, 0.2)).accepted);  // 1 s old for the driver
+  Plan fresh = linePlan(3, {{0.0, 0.0, 0.25}}, 0.2);
+  fresh.utime += rig.wall_offset_us_;
+  ASSERT_TRUE(rig.driver().submitPlan(fresh).accepted);
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({0.0, 0.0, 0.25}); }, 8.0));
+  EXPECT_TRUE(rig.waitMode(DriverMode::Idle, 1.0));
+}
+
+TEST(DriverEmulator, LostPlannerHeartbeatStops) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.15, 0.1, 0.1}}, 0.05)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  rig.heartbeats_ = false;
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(rig.waitMode(DriverMode::Holding, 2.0));
+  const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // The last heartbeat came up to 50 ms before t0; the limit is 0.5 s.
+  EXPECT_LE(t, 0.5 + 0.1);
+  EXPECT_NE(rig.driver().status().reason.find("heartbeat"), std::string::npos);
+  // Without heartbeats new plans are refused.
+  EXPECT_FALSE(rig.driver().submitPlan(linePlan(2, {{0.0, 0.0, 0.2}}, 0.05)).accepted);
+}
+
+TEST(DriverEmulator, EstopHaltsAtOnceAndNeedsAReset) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.15, 0.1, 0.1}}, 0.1)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  std::this_thread::sleep_for(100ms);
+  rig.driver().estop(true, "test");
+  // Robot_Halt went out on the watch connection before estop() returned.
+  EXPECT_TRUE(rig.emu().halted());
+  const Joints q_halt = rig.emu().joints().q;
+  ASSERT_TRUE(rig.waitFor([&] { return !rig.emu().joints().motor_on; }, 0.5));
+  EXPECT_EQ(rig.driver().status().mode, DriverMode::EStopped);
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(rig.emu().joints().q, q_halt);
+  EXPECT_FALSE(rig.emu().tool().vacuum);
+  EXPECT_FALSE(rig.driver().submitPlan(linePlan(2, {{0.0, 0.0, 0.2}}, 0.05)).accepted);
+  // Still stopped without a reset.
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(rig.driver().status().mode, DriverMode::EStopped);
+  // Reset: re-enabled where it is, no plan, no jump.
+  rig.driver().estop(false, "reset");
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 2.0)) << rig.driver().status().reason;
+  EXPECT_TRUE(rig.emu().joints().motor_on);
+  EXPECT_EQ(rig.emu().joints().q, q_halt);
+  EXPECT_EQ(rig.driver().status().plan_id, -1);
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(3, {{0.0, 0.0, 0.2}}, 0.2)).accepted);
+  ASSERT_TRUE(rig.waitFor([&] { return (emuNozzle(rig) - Eigen::Vector3d(0, 0, 0.2)).norm() < 1e-9; }, 5.0));
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+}
+
+TEST(DriverEmulator, LostConnectionResumesWithoutAJump) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(
+      rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.1, 0.1, 0.15}, {-0.1, 0.1, 0.15}}, 0.1)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  std::this_thread::sleep_for(300ms);
+  rig.emu().dropConnections();
+  // The controller stopped the arm when its client vanished; the driver reconnects, re-reads
+  // the position and resumes the plan from there.
+  ASSERT_TRUE(rig.waitFor([&] { return rig.driver().status().stats.reconnects == 1; }, 2.0))
+      << rig.driver().status().reason;
+  EXPECT_TRUE(rig.emu().lastHaltTime().has_value());
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({-0.1, 0.1, 0.15}); }, 15.0)) << rig.driver().status().reason;
+  EXPECT_TRUE(rig.waitMode(DriverMode::Idle, 1.0));
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+}
+
+TEST(DriverEmulator, ControllerErrorIsClearedAndResumed) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.1, 0.1, 0.15}}, 0.2)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  std::this_thread::sleep_for(200ms);
+  rig.emu().raiseError("test collision");
+  EXPECT_TRUE(rig.emu().halted());
+  ASSERT_TRUE(rig.waitFor([&] { return rig.driver().status().stats.faults == 1; }, 1.0));
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({0.1, 0.1, 0.15}); }, 15.0)) << rig.driver().status().reason;
+  EXPECT_TRUE(rig.waitMode(DriverMode::Idle, 1.0));
+  EXPECT_EQ(rig.driver().status().stats.faults, 1);
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+}
