@@ -22,8 +22,13 @@ std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> bvhOf(const Mesh& mesh) {
   return m;
 }
 
-/// Distance between two objects; <= 0 when they touch.
-double distanceBetween(const Object& a, const Object& b) {
+/// Distance between two objects; <= 0 when they touch. Pairs whose bounding boxes are more
+/// than kFar apart are not measured (reported as kFar): only near misses matter here.
+constexpr double kFar = 0.05;
+double distanceBetween(Object a, Object b) {
+  a.computeAABB();
+  b.computeAABB();
+  if (a.getAABB().distance(b.getAABB()) > kFar) return kFar;
   fcl::CollisionRequestd creq;
   fcl::CollisionResultd cres;
   if (fcl::collide(&a, &b, creq, cres) > 0) return 0;

@@ -113,7 +113,7 @@ struct CollisionWorld::Impl {
   std::shared_ptr<const robot::ArmConfig> arm;
   std::vector<ArmCapsule> capsules;
 
-  Contact armContact(const robot::Joints& q, bool include_powder) const {
+  Contact armContact(const robot::Joints& q, const CheckOptions& o) const {
     if (!robot::withinLimits(*arm, q)) return {true, "joint limits"};
     const std::vector<Pose> links = robot::linkPoses(q);
     std::vector<FclObject> fixed;
@@ -123,15 +123,16 @@ struct CollisionWorld::Impl {
       fixed.push_back(makeObject(c.fixed, T));
       for (const Static& s : statics)
         if (collide(fixed.back(), s.object)) return {true, c.name + "-" + s.name};
-      if (include_powder && powder && collide(fixed.back(), *powder)) return {true, c.name + "-powder"};
+      if (o.powder && powder && collide(fixed.back(), *powder)) return {true, c.name + "-powder"};
       for (std::size_t i = 0; i < parts.size(); ++i) {
-        if (states[i] == PartState::kIgnored) continue;
-        const FclObject grown = makeObject(states[i] == PartState::kLost ? c.lost : c.tracked, T);
+        if (states[i] == PartState::kIgnored || static_cast<int>(i) == o.ignore_part) continue;
+        const bool lost = states[i] == PartState::kLost && o.lost_margin;
+        const FclObject grown = makeObject(lost ? c.lost : c.tracked, T);
         if (collide(grown, part_objects[i])) return {true, c.name + "-part:" + parts[i]->name()};
       }
     }
     const Pose T_cell_nozzle = arm->T_cell_base * links[6] * arm->T_flange_nozzle;
-    if (Contact c = nozzleContact(T_cell_nozzle, include_powder)) return c;
+    if (Contact c = nozzleContact(T_cell_nozzle, o)) return c;
     // Self collision: the nozzle against the links up to the elbow (the wrist carries it).
     const FclObject n = makeObject(nozzle_static, nozzleShapePose(T_cell_nozzle, nozzle));
     for (std::size_t k = 0; k < capsules.size(); ++k)
@@ -139,17 +140,17 @@ struct CollisionWorld::Impl {
     return {};
   }
 
-  Contact nozzleContact(const Pose& T_cell_nozzle, bool include_powder) const {
+  Contact nozzleContact(const Pose& T_cell_nozzle, const CheckOptions& o) const {
     const Pose T = nozzleShapePose(T_cell_nozzle, nozzle);
     const FclObject fixed = makeObject(nozzle_static, T);
     for (const Static& s : statics)
       if (collide(fixed, s.object)) return {true, "nozzle-" + s.name};
-    if (include_powder && powder && collide(fixed, *powder)) return {true, "nozzle-powder"};
+    if (o.powder && powder && collide(fixed, *powder)) return {true, "nozzle-powder"};
     const FclObject tracked = makeObject(nozzle_tracked, T);
     const FclObject lost = makeObject(nozzle_lost, T);
     for (std::size_t i = 0; i < parts.size(); ++i) {
-      if (states[i] == PartState::kIgnored) continue;
-      const FclObject& n = states[i] == PartState::kLost ? lost : tracked;
+      if (states[i] == PartState::kIgnored || static_cast<int>(i) == o.ignore_part) continue;
+      const FclObject& n = states[i] == PartState::kLost && o.lost_margin ? lost : tracked;
       if (collide(n, part_objects[i])) return {true, "nozzle-part:" + parts[i]->name()};
     }
     return {};
@@ -235,13 +236,13 @@ void CollisionWorld::setPowderTop(double top) {
 
 double CollisionWorld::powderTop() const { return impl_->powder_top; }
 
-Contact CollisionWorld::checkNozzle(const Pose& T_cell_nozzle, bool include_powder) const {
-  return impl_->nozzleContact(T_cell_nozzle, include_powder);
+Contact CollisionWorld::checkNozzle(const Pose& T_cell_nozzle, const CheckOptions& options) const {
+  return impl_->nozzleContact(T_cell_nozzle, options);
 }
 
-Contact CollisionWorld::checkArm(const robot::Joints& q, bool include_powder) const {
+Contact CollisionWorld::checkArm(const robot::Joints& q, const CheckOptions& options) const {
   if (!impl_->arm) throw std::logic_error("CollisionWorld::checkArm: no arm model");
-  return impl_->armContact(q, include_powder);
+  return impl_->armContact(q, options);
 }
 
 bool CollisionWorld::hasArm() const { return impl_->arm != nullptr; }

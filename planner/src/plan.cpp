@@ -1,7 +1,11 @@
 #include "depowder/planner/plan.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <optional>
+
+#include "axis_distance.hpp"
 
 namespace depowder::planner {
 
@@ -53,6 +57,78 @@ Waypoint here(const robot::ArmConfig& arm, const robot::Joints& q) {
   w.T_cell_nozzle = robot::forwardNozzle(arm, q);
   w.q = q;
   return w;
+}
+
+/// If the arm is in collision now because a part moved into the nozzle's margin (the paper's
+/// toppling pipe), the way out: straight away from that part, horizontally, every edge_step,
+/// while nothing else is hit and the nozzle's distance to the part never shrinks, until the
+/// arm is clear. Returns the escaped joints (q_now if nothing to do) or nullopt with `why`.
+std::optional<robot::Joints> escape(const CollisionWorld& world, const robot::Joints& q_now,
+                                    const PlannerConfig& config, Tool tool, double speed, std::vector<Waypoint>& out,
+                                    std::string& why) {
+  const Contact contact = world.checkArm(q_now);
+  if (!contact) return q_now;
+  const std::string prefix = "nozzle-part:";
+  int part = -1;
+  if (contact.what.rfind(prefix, 0) == 0)
+    for (std::size_t i = 0; i < world.numParts(); ++i)
+      if (world.part(i).name() == contact.what.substr(prefix.size())) part = static_cast<int>(i);
+  if (part < 0 || world.checkArm(q_now, CheckOptions(false, true, part))) {
+    why = "the arm is in collision (" + contact.what + ")";
+    return std::nullopt;
+  }
+  const robot::ArmConfig& arm = world.arm();
+  const AxisDistanceField field(world.part(part).mesh(), world.partPose(part));
+  const double length = world.nozzle().length;
+  const Pose T0 = robot::forwardNozzle(arm, q_now);
+  const Point tip0 = T0.translation();
+  const auto d0 = field.query(tip0.x(), tip0.y(), tip0.z(), tip0.z() + length, 1.0);
+  Eigen::Vector3d dir = d0.cut_off ? Eigen::Vector3d::Zero() : Eigen::Vector3d(d0.on_axis - d0.on_part);
+  dir.z() = 0;
+  if (dir.norm() < 1e-9) dir = tip0 - world.partPose(part).translation();
+  dir.z() = 0;
+  if (dir.norm() < 1e-9) {
+    why = "the nozzle is on the axis of " + world.part(part).name();
+    return std::nullopt;
+  }
+  dir.normalize();
+  const double max_move = config.vacuum.standoff + config.collision.lost_margin;
+  const int steps = static_cast<int>(std::ceil(max_move / config.collision.edge_step));
+  robot::Joints q = q_now;
+  double d_prev = d0.distance;
+  for (int k = 1; k <= steps; ++k) {
+    Pose T = T0;
+    T.translation() = tip0 + dir * (k * config.collision.edge_step);
+    const auto next = robot::inverseNozzle(arm, T, q);
+    double jump = 0;
+    if (next)
+      for (int i = 0; i < 6; ++i) jump = std::max(jump, std::abs((*next)[i] - q[i]));
+    if (!next || jump > config.collision.max_joint_step) {
+      why = "no IK on the way out of " + world.part(part).name();
+      return std::nullopt;
+    }
+    if (const Contact other = world.checkArm(*next, CheckOptions(false, true, part))) {
+      why = "leaving " + world.part(part).name() + " would hit " + other.what;
+      return std::nullopt;
+    }
+    const auto d =
+        field.query(T.translation().x(), T.translation().y(), T.translation().z(), T.translation().z() + length, 1.0);
+    if (d.distance < d_prev - 1e-4) {
+      why = "no way straight out of " + world.part(part).name();
+      return std::nullopt;
+    }
+    d_prev = d.distance;
+    q = *next;
+    Waypoint w;
+    w.T_cell_nozzle = T;
+    w.tool = tool;
+    w.speed = speed;
+    w.q = q;
+    out.push_back(w);
+    if (!world.checkArm(q)) return q;
+  }
+  why = "still too close to " + world.part(part).name() + " after moving " + std::to_string(max_move) + " m out";
+  return std::nullopt;
 }
 
 }  // namespace
@@ -130,13 +206,23 @@ Plan planCycle(const CollisionWorld& world, const CycleRequest& request, const P
     return plan;
   }
 
-  // 3. Enter the first piece: straight if the nozzle is next to it, else a transition.
-  const Waypoint now = here(arm, request.q_now);
+  // 3. Out of a part's margin if it moved onto the nozzle; then enter the first piece: straight
+  //    if the nozzle is next to it, else a transition.
+  std::string why;
+  const auto q_start = escape(world, request.q_now, config, tool, speed, plan.waypoints, why);
+  if (!q_start) {
+    plan.status = PlanStatus::kTransitionFailed;
+    plan.reason = "hold: " + why;
+    plan.waypoints.clear();
+    plan.planning_ms = msSince(t0);
+    return plan;
+  }
+  const Waypoint now = here(arm, *q_start);
   const Waypoint& first = refined.pieces.front().front();
   const double gap = (first.T_cell_nozzle.translation() - now.T_cell_nozzle.translation()).norm();
-  std::string entry = "entered directly";
+  std::string entry = plan.waypoints.empty() ? "entered directly" : "escaped from the part, entered directly";
   if (gap > config.transition.direct_move || !edgeFree(world, now, first, config)) {
-    TransitionResult t = planTransition(world, request.q_now, first.q, config, request.try_direct);
+    TransitionResult t = planTransition(world, *q_start, first.q, config, request.try_direct);
     plan.transitions.push_back(t);
     if (!t.ok()) {
       plan.status = PlanStatus::kTransitionFailed;
@@ -144,9 +230,10 @@ Plan planCycle(const CollisionWorld& world, const CycleRequest& request, const P
       plan.planning_ms = msSince(t0);
       return plan;
     }
-    plan.waypoints = pathWaypoints(arm, t.path, config.transition.speed);
-    plan.waypoints.pop_back();  // the path's last state is the first waypoint itself
-    entry = "entry transition " + describe(t);
+    auto moves = pathWaypoints(arm, t.path, config.transition.speed);
+    moves.pop_back();  // the path's last state is the first waypoint itself
+    plan.waypoints.insert(plan.waypoints.end(), moves.begin(), moves.end());
+    entry = (plan.waypoints.size() > moves.size() ? "escaped, " : "") + std::string("entry transition ") + describe(t);
   }
 
   // 4. The pieces, joined by transitions; stop at a gap that cannot be bridged.
@@ -182,14 +269,25 @@ Plan planHome(const CollisionWorld& world, const robot::Joints& q_now, const Pla
   const auto t0 = Clock::now();
   Plan plan;
   const robot::ArmConfig& arm = world.arm();
-  TransitionResult t = planTransition(world, q_now, arm.q_home, config);
+  std::string stuck;
+  const auto q_start = escape(world, q_now, config, Tool::kOff, config.transition.speed, plan.waypoints, stuck);
+  if (!q_start) {
+    plan.status = PlanStatus::kTransitionFailed;
+    plan.reason = "hold: cannot go home (" + why + "): " + stuck;
+    plan.waypoints.clear();
+    plan.planning_ms = msSince(t0);
+    return plan;
+  }
+  TransitionResult t = planTransition(world, *q_start, arm.q_home, config);
   plan.transitions.push_back(t);
   if (!t.ok()) {
     plan.status = PlanStatus::kTransitionFailed;
     plan.reason = "hold: cannot go home (" + why + "): " + t.reason;
+    plan.waypoints.clear();
   } else {
     plan.status = PlanStatus::kHome;
-    plan.waypoints = pathWaypoints(arm, t.path, config.transition.speed);
+    const auto moves = pathWaypoints(arm, t.path, config.transition.speed);
+    plan.waypoints.insert(plan.waypoints.end(), moves.begin(), moves.end());
     plan.reason = "home: " + why + "; transition " + describe(t);
   }
   plan.planning_ms = msSince(t0);

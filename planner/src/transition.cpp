@@ -101,8 +101,9 @@ TransitionStatus fromOmpl(ob::PlannerStatus s) {
 }
 
 /// Joint states of a vertical tip move from q's tip to height z (same orientation), every edge_step;
-/// empty if IK fails, a joint jumps or a state collides (powder not an obstacle: the nozzle
-/// moves along its own axis).
+/// empty if IK fails, a joint jumps or a state collides. The nozzle moves along its own axis, so
+/// the powder is no obstacle and a LOST part counts with the tracked margin (the nozzle may have
+/// been next to it when it got lost; going straight up is the way out).
 std::vector<robot::Joints> verticalMove(const CollisionWorld& world, const robot::Joints& q0, double z,
                                         const PlannerConfig& config, std::string* why) {
   const robot::ArmConfig& arm = world.arm();
@@ -122,7 +123,7 @@ std::vector<robot::Joints> verticalMove(const CollisionWorld& world, const robot
       *why = "joint jump at z = " + std::to_string(T.translation().z());
       return {};
     }
-    if (const Contact c = world.checkArm(*q)) {
+    if (const Contact c = world.checkArm(*q, CheckOptions(false, false))) {
       *why = c.what + " at z = " + std::to_string(T.translation().z());
       return {};
     }

@@ -62,6 +62,15 @@ struct Contact {
   explicit operator bool() const { return collision; }
 };
 
+/// What a check includes. Converts from a bool (the powder flag).
+struct CheckOptions {
+  bool powder = false;      ///< the powder is an obstacle (transitions); vacuum paths run inside it
+  bool lost_margin = true;  ///< false: LOST parts with the tracked margin (leaving along the nozzle axis)
+  int ignore_part = -1;     ///< a part index left out (an escape move checks that part separately)
+  CheckOptions(bool powder_ = false, bool lost_margin_ = true, int ignore_part_ = -1)  // NOLINT: implicit by design
+      : powder(powder_), lost_margin(lost_margin_), ignore_part(ignore_part_) {}
+};
+
 class CollisionWorld {
  public:
   /// `arm` may be null: then only the nozzle can be checked (checkArm needs it). The arm's
@@ -80,18 +89,17 @@ class CollisionWorld {
   PartState partState(std::size_t i) const;
 
   /// The powder as an obstacle for transitions: the box interior from the floor up to
-  /// `top` (m, cell z); a value <= 0 removes it. Waypoint checks of vacuum paths run
-  /// inside the powder and pass include_powder = false.
+  /// `top` (m, cell z); a value <= 0 removes it. It counts only in checks with options.powder.
   void setPowderTop(double top);
   double powderTop() const;
 
   /// The nozzle alone at T_cell_nozzle.
-  Contact checkNozzle(const Pose& T_cell_nozzle, bool include_powder = false) const;
+  Contact checkNozzle(const Pose& T_cell_nozzle, const CheckOptions& options = {}) const;
 
   /// Links and nozzle at joint angles q: joint limits, links against box, powder and parts
   /// (margin arm_margin, plus the part's margin), the nozzle as in checkNozzle, and the
   /// nozzle against the base, turret, upper arm and elbow (self collision).
-  Contact checkArm(const robot::Joints& q, bool include_powder = false) const;
+  Contact checkArm(const robot::Joints& q, const CheckOptions& options = {}) const;
   bool hasArm() const;
   /// The arm model (throws std::logic_error if there is none).
   const robot::ArmConfig& arm() const;

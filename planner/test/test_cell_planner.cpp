@@ -1,0 +1,308 @@
+// Cycle plans and the cell sequencer: tools per phase, the paper's two-cube order, lost and
+// done parts, replanning on pose changes without a jump, holds on bad or stale input.
+#include <gtest/gtest.h>
+
+#include "depowder/parts.hpp"
+#include "depowder/planner/cell_planner.hpp"
+#include "depowder/planner/check.hpp"
+#include "fixtures.hpp"
+
+using namespace depowder;
+using namespace depowder::planner;
+
+namespace {
+
+constexpr std::int64_t kSecond = 1000000;
+
+class CellTest : public ::testing::Test {
+ protected:
+  PlannerConfig config;
+  std::shared_ptr<robot::ArmConfig> arm = test::cellArm();
+  Mesh cube = parts::byName("cube");
+  Pose T_left = makePoseRpy({-0.08, 0.0, 0.03}, 0, 0, 0.1);
+  Pose T_right = makePoseRpy({0.09, 0.02, 0.03}, 0, 0, -0.2);
+  std::unique_ptr<CellPlanner> planner;
+  std::int64_t utime = 100 * kSecond;
+
+  void SetUp() override {
+    std::vector<PartSpec> specs{{std::make_shared<PartShape>("left", cube), T_left},
+                                {std::make_shared<PartShape>("right", cube), T_right}};
+    planner = std::make_unique<CellPlanner>(std::move(specs), Box{}, arm, config);
+  }
+  /// One camera frame's worth of estimates for a part at pose T with powder at `powder`.
+  void frame(const std::string& part, const Pose& T, Phase phase, double powder,
+             TrackStatus track = TrackStatus::kTracking) {
+    PoseInput p;
+    p.part = part;
+    p.utime = utime;
+    p.T_cell_part = T;
+    p.status = track;
+    EXPECT_TRUE(planner->onPose(p).ok());
+    ProgressInput g;
+    g.part = part;
+    g.utime = utime;
+    g.phase = phase;
+    g.h_pow = powder;
+    g.h_max = T.translation().z() + 0.03;
+    g.h_min = T.translation().z() - 0.03;
+    g.eta = (g.h_max - powder) / 0.06;
+    g.contour = test::syntheticContour(transformed(cube, T), powder);
+    EXPECT_TRUE(planner->onProgress(g).ok());
+  }
+  void robotAt(const Plan& plan, int index) {
+    RobotInput r;
+    r.utime = utime;
+    r.plan_id = plan.plan_id;
+    r.waypoint_index = index;
+    r.q = plan.waypoints[std::min<std::size_t>(index, plan.waypoints.size() - 1)].q;
+    EXPECT_TRUE(planner->onRobot(r).ok());
+  }
+  CheckReport check(const Plan& plan, const Pose& left, const Pose& right) const {
+    return checkWaypoints(plan.waypoints, {{"left", cube, left}, {"right", cube, right}}, Box{}, *arm, config.nozzle);
+  }
+};
+
+std::vector<Waypoint> withTool(const Plan& plan, Tool tool) {
+  std::vector<Waypoint> out;
+  for (const Waypoint& w : plan.waypoints)
+    if (w.tool == tool) out.push_back(w);
+  return out;
+}
+
+TEST_F(CellTest, TwoCubesTakeTurnsOneCycleEach) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints()) << (p1 ? p1->reason : "no plan");
+  EXPECT_EQ(p1->part, "left");
+  EXPECT_EQ(p1->utime, utime) << "stamped with the frame that caused it";
+  EXPECT_TRUE(check(*p1, T_left, T_right).clean()) << check(*p1, T_left, T_right).first;
+  // Nothing changed: no new plan.
+  utime += 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  EXPECT_FALSE(planner->step());
+  // Half-way through: still nothing.
+  robotAt(*p1, static_cast<int>(p1->waypoints.size() / 2));
+  EXPECT_FALSE(planner->step());
+  // Cycle finished: the right cube next, then the left again.
+  robotAt(*p1, static_cast<int>(p1->waypoints.size()));
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2 && p2->hasWaypoints()) << (p2 ? p2->reason : "no plan");
+  EXPECT_EQ(p2->part, "right");
+  EXPECT_GT(p2->plan_id, p1->plan_id);
+  EXPECT_FALSE(p2->transitions.empty()) << "moving between parts is a transition";
+  EXPECT_EQ(p2->waypoints.front().tool, Tool::kOff);
+  EXPECT_TRUE(check(*p2, T_left, T_right).clean()) << check(*p2, T_left, T_right).first;
+  robotAt(*p2, static_cast<int>(p2->waypoints.size()));
+  auto p3 = planner->step();
+  ASSERT_TRUE(p3 && p3->hasWaypoints());
+  EXPECT_EQ(p3->part, "left");
+  EXPECT_EQ(planner->parts()[0].cycles, 2);
+  EXPECT_EQ(planner->parts()[1].cycles, 1);
+}
+
+TEST_F(CellTest, PhaseSwitchChangesTheTool) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto vac = planner->step();
+  ASSERT_TRUE(vac && vac->hasWaypoints()) << (vac ? vac->reason : "");
+  EXPECT_EQ(vac->phase, Phase::kVacuumTracked);
+  EXPECT_GT(withTool(*vac, Tool::kVacuum).size(), 20u);
+  EXPECT_TRUE(withTool(*vac, Tool::kAir).empty());
+  robotAt(*vac, 3);
+  utime += 33000;
+  frame("left", T_left, Phase::kAirBlast, 0.005);
+  auto air = planner->step();
+  ASSERT_TRUE(air && air->hasWaypoints()) << (air ? air->reason : "");
+  EXPECT_EQ(air->phase, Phase::kAirBlast);
+  EXPECT_TRUE(withTool(*air, Tool::kVacuum).empty());
+  const auto blast = withTool(*air, Tool::kAir);
+  EXPECT_GT(blast.size(), 10u);
+  for (const Waypoint& w : blast) EXPECT_GT(w.T_cell_nozzle.translation().z(), 0.06) << "above the cube";
+  EXPECT_NE(air->reason.find("air-blast"), std::string::npos) << air->reason;
+  EXPECT_TRUE(check(*air, T_left, T_right).clean()) << check(*air, T_left, T_right).first;
+}
+
+TEST_F(CellTest, MovedPartMovesThePathWithoutAJump) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints());
+  int at = 0;
+  while (p1->waypoints[at].tool != Tool::kVacuum) ++at;
+  at += 10;  // on the loop
+  robotAt(*p1, at);
+  const Point nozzle = p1->waypoints[at].T_cell_nozzle.translation();
+  // The part slides 1.5 cm away from the nozzle: above the 5 mm threshold.
+  Eigen::Vector3d away = T_left.translation() - nozzle;
+  away.z() = 0;
+  Pose moved = T_left;
+  moved.translation() += 0.015 * away.normalized();
+  utime += 33000;
+  frame("left", moved, Phase::kVacuumTracked, 0.04);
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2 && p2->hasWaypoints()) << (p2 ? p2->reason : "");
+  EXPECT_EQ(p2->part, "left");
+  EXPECT_TRUE(p2->transitions.empty()) << p2->reason;
+  EXPECT_NE(p2->reason.find("entered directly"), std::string::npos) << p2->reason;
+  // The new loop starts next to the nozzle (the nearest loop point is 1.5 cm away), same layer.
+  EXPECT_LT((p2->waypoints.front().T_cell_nozzle.translation() - nozzle).norm(), config.transition.direct_move);
+  EXPECT_NEAR(p2->waypoints.front().T_cell_nozzle.translation().z(), nozzle.z(), 1e-9) << "same layer";
+  EXPECT_TRUE(check(*p2, moved, T_right).clean());
+  // A pose change below the threshold does not replan.
+  utime += 33000;
+  Pose nudged = moved;
+  nudged.translation().x() += 0.002;
+  frame("left", nudged, Phase::kVacuumTracked, 0.04);
+  EXPECT_FALSE(planner->step());
+}
+
+TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFrom) {
+  // The paper's toppling pipe: the part moves towards the nozzle, into the margins (not into
+  // the nozzle itself). The nozzle backs straight out, then runs the new loop.
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints());
+  int at = 0;
+  while (p1->waypoints[at].tool != Tool::kVacuum) ++at;
+  at += 10;
+  robotAt(*p1, at);
+  const Point nozzle = p1->waypoints[at].T_cell_nozzle.translation();
+  Eigen::Vector3d toward = nozzle - T_left.translation();
+  toward.z() = 0;
+  Pose moved = T_left;
+  moved.translation() += 0.008 * toward.normalized();
+  utime += 33000;
+  frame("left", moved, Phase::kVacuumTracked, 0.04);
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2 && p2->hasWaypoints()) << (p2 ? p2->reason : "");
+  EXPECT_NE(p2->reason.find("escaped"), std::string::npos) << p2->reason;
+  // The first move goes away from the part, and nothing in the plan touches the moved part.
+  const Point first = p2->waypoints.front().T_cell_nozzle.translation();
+  EXPECT_GT((first - moved.translation()).head<2>().norm(), (nozzle - moved.translation()).head<2>().norm());
+  EXPECT_LE((first - nozzle).norm(), config.collision.edge_step + 1e-9);
+  const CheckReport c = check(*p2, moved, T_right);
+  EXPECT_TRUE(c.clean()) << c.first;
+}
+
+TEST_F(CellTest, PhaseOneUsesTheInitialPose) {
+  // The tracker's pose is off by 3 cm, but in phase 1 the printed pose counts.
+  frame("left", makePoseRpy({-0.05, 0.0, 0.03}, 0, 0, 0.1), Phase::kVacuumBuried, 0.08);
+  auto p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
+  const auto loop = withTool(*p, Tool::kVacuum);
+  Point mean = Point::Zero();
+  for (const Waypoint& w : loop) mean += w.T_cell_nozzle.translation() / double(loop.size());
+  EXPECT_NEAR(mean.x(), T_left.translation().x(), 0.004);
+  EXPECT_NEAR(mean.y(), T_left.translation().y(), 0.004);
+}
+
+TEST_F(CellTest, LostPartIsSkippedAndReported) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04, TrackStatus::kLost);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  auto p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints());
+  EXPECT_EQ(p->part, "right");
+  EXPECT_TRUE(planner->parts()[0].lost);
+  EXPECT_NE(planner->parts()[0].note.find("lost"), std::string::npos);
+  robotAt(*p, static_cast<int>(p->waypoints.size()));
+  auto again = planner->step();
+  ASSERT_TRUE(again && again->hasWaypoints());
+  EXPECT_EQ(again->part, "right");
+  // Everything left is lost: go home and say why.
+  utime += 33000;
+  frame("right", T_right, Phase::kVacuumTracked, 0.04, TrackStatus::kLost);
+  auto home = planner->step();
+  ASSERT_TRUE(home);
+  EXPECT_EQ(home->status, PlanStatus::kHome);
+  EXPECT_NE(home->reason.find("lost: left, right"), std::string::npos) << home->reason;
+}
+
+TEST_F(CellTest, AllDoneGoesHome) {
+  frame("left", T_left, Phase::kDone, 0.0);
+  frame("right", T_right, Phase::kDone, 0.0);
+  auto p = planner->step();
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->status, PlanStatus::kHome);
+  EXPECT_TRUE(planner->finished());
+  EXPECT_FALSE(planner->step()) << "home is planned once";
+}
+
+TEST_F(CellTest, BadMessagesGiveAStatusAndNoPlan) {
+  PoseInput bad;
+  bad.part = "left";
+  bad.utime = utime;
+  bad.T_cell_part.translation().x() = std::nan("");
+  const InputResult r = planner->onPose(bad);
+  EXPECT_EQ(r.status, InputStatus::kInvalidPose);
+  EXPECT_NE(r.reason.find("left"), std::string::npos);
+  ProgressInput empty;
+  empty.part = "left";
+  empty.utime = utime;
+  empty.phase = Phase::kVacuumTracked;
+  empty.status = ProgressStatus::kOk;  // claims a contour but sends none
+  const InputResult e = planner->onProgress(empty);
+  EXPECT_EQ(e.status, InputStatus::kInvalidContour);
+  EXPECT_NE(e.reason.find("0 points"), std::string::npos) << e.reason;
+  ProgressInput nan = empty;
+  nan.status = ProgressStatus::kNoContour;
+  nan.eta = std::nan("");
+  EXPECT_EQ(planner->onProgress(nan).status, InputStatus::kInvalidValue);
+  EXPECT_EQ(planner->onPose(PoseInput{"nope", utime, Pose::Identity(), TrackStatus::kTracking, ""}).status,
+            InputStatus::kUnknownPart);
+  // Nothing valid arrived: a hold without waypoints, once.
+  auto p = planner->step();
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->status, PlanStatus::kHold);
+  EXPECT_FALSE(p->hasWaypoints());
+  EXPECT_NE(p->reason.find("no PROGRESS"), std::string::npos) << p->reason;
+  EXPECT_FALSE(planner->step());
+}
+
+TEST_F(CellTest, NoContourFallsBackToTheFootprint) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  ProgressInput g;
+  g.part = "left";
+  g.utime = utime;
+  g.phase = Phase::kVacuumTracked;
+  g.status = ProgressStatus::kNoContour;
+  g.status_reason = "3 band points";
+  g.eta = 0.5;
+  ASSERT_TRUE(planner->onProgress(g).ok());
+  auto p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
+  EXPECT_EQ(p->source, LoopSource::kFootprint);
+  EXPECT_NE(p->reason.find("footprint"), std::string::npos) << p->reason;
+  EXPECT_NE(p->reason.find("NO_CONTOUR"), std::string::npos) << p->reason;
+  // The loop is at the last known powder height (0.04) minus a layer.
+  EXPECT_NEAR(withTool(*p, Tool::kVacuum).front().T_cell_nozzle.translation().z(), 0.04 - config.vacuum.layer_depth,
+              1e-9);
+}
+
+TEST_F(CellTest, StaleOrMissingPoseHolds) {
+  ProgressInput g;
+  g.part = "left";
+  g.utime = utime;
+  g.phase = Phase::kVacuumTracked;
+  g.status = ProgressStatus::kNoContour;
+  g.eta = 0.5;
+  ASSERT_TRUE(planner->onProgress(g).ok());
+  auto p = planner->step();
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->status, PlanStatus::kHold);
+  EXPECT_NE(p->reason.find("no PART_POSE for left"), std::string::npos) << p->reason;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  ASSERT_TRUE(planner->step());
+  // Progress keeps coming but the tracker went quiet for 2 s.
+  utime += 2 * kSecond;
+  g.utime = utime;
+  g.status = ProgressStatus::kOk;
+  g.contour = test::syntheticContour(transformed(cube, T_left), 0.04);
+  g.h_pow = 0.04;
+  g.phase = Phase::kAirBlast;  // something to replan for
+  ASSERT_TRUE(planner->onProgress(g).ok());
+  auto stale = planner->step();
+  ASSERT_TRUE(stale);
+  EXPECT_EQ(stale->status, PlanStatus::kHold);
+  EXPECT_NE(stale->reason.find("stale"), std::string::npos) << stale->reason;
+}
+
+}  // namespace
