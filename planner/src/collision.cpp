@@ -141,6 +141,9 @@ struct CollisionWorld::Impl {
   }
 
   Contact nozzleContact(const Pose& T_cell_nozzle, const CheckOptions& o) const {
+    const Eigen::Vector3d tip = T_cell_nozzle.translation();
+    if ((tip.array() < config.workspace_min.array()).any() || (tip.array() > config.workspace_max.array()).any())
+      return {true, "workspace"};
     const Pose T = nozzleShapePose(T_cell_nozzle, nozzle);
     const FclObject fixed = makeObject(nozzle_static, T);
     for (const Static& s : statics)

@@ -119,7 +119,7 @@ std::vector<robot::Joints> verticalMove(const CollisionWorld& world, const robot
       *why = "no IK solution at z = " + std::to_string(T.translation().z());
       return {};
     }
-    if (maxJointStep(out.back(), *q) > config.collision.max_joint_step) {
+    if (maxJointStep(out.back(), *q) > config.collision.max_joint_step) {  // a branch flip
       *why = "joint jump at z = " + std::to_string(T.translation().z());
       return {};
     }
@@ -210,6 +210,48 @@ double safeHeight(const CollisionWorld& world, const TransitionConfig& config) {
   return top + config.clearance;
 }
 
+namespace {
+
+Waypoint atJoints(const robot::ArmConfig& arm, const robot::Joints& q) {
+  Waypoint w;
+  w.T_cell_nozzle = robot::forwardNozzle(arm, q);
+  w.q = q;
+  return w;
+}
+
+/// The driver runs waypoints as straight Cartesian steps with IK, not along the joint-space
+/// line OMPL validated: checks every step of the path that way, inserting joint-space
+/// midpoints (which lie on the validated line) where the Cartesian step fails.
+bool verifyCartesian(const CollisionWorld& world, std::vector<robot::Joints>& path, const PlannerConfig& config,
+                     std::string* why) {
+  const robot::ArmConfig& arm = world.arm();
+  const CheckOptions options(false, false);  // lifts leave the powder; LOST parts as in verticalMove
+  std::vector<robot::Joints> out{path.front()};
+  for (std::size_t k = 1; k < path.size(); ++k) {
+    std::vector<robot::Joints> todo{path[k]};
+    int splits = 0;
+    while (!todo.empty()) {
+      const robot::Joints next = todo.back();
+      if (edgeFree(world, atJoints(arm, out.back()), atJoints(arm, next), config, options)) {
+        out.push_back(next);
+        todo.pop_back();
+        continue;
+      }
+      if (++splits > 16) {
+        *why = "the Cartesian move between two transition states collides or flips the arm";
+        return false;
+      }
+      robot::Joints mid;
+      for (int i = 0; i < 6; ++i) mid[i] = 0.5 * (out.back()[i] + next[i]);
+      todo.push_back(mid);
+    }
+  }
+  path = std::move(out);
+  return true;
+}
+
+}  // namespace
+
 TransitionResult planTransition(const CollisionWorld& world, const robot::Joints& start, const robot::Joints& goal,
                                 const PlannerConfig& config, bool try_direct) {
   const auto t0 = Clock::now();
@@ -243,6 +285,11 @@ TransitionResult planTransition(const CollisionWorld& world, const robot::Joints
     path.insert(path.end(), r.path.begin() + 1, r.path.end());
     path.insert(path.end(), descent.begin() + 1, descent.end());
     r.path = std::move(path);
+    if (!verifyCartesian(world, r.path, config, &why)) {
+      r.status = TransitionStatus::kBlocked;
+      r.reason = why;
+      r.path.clear();
+    }
   }
   r.planning_ms = msSince(t0);
   return r;

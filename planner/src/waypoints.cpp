@@ -65,10 +65,13 @@ Pose interpolate(const Pose& a, const Pose& b, double s) {
 }  // namespace
 
 bool edgeFree(const CollisionWorld& world, const Waypoint& a, const Waypoint& b, const PlannerConfig& config,
-              bool include_powder) {
+              const CheckOptions& options) {
+  constexpr double kRotationStep = 0.05;  // rad, as the driver steps orientation changes
   const robot::ArmConfig& arm = world.arm();
   const double length = (b.T_cell_nozzle.translation() - a.T_cell_nozzle.translation()).norm();
-  const int n = std::max(1, static_cast<int>(std::ceil(length / config.collision.edge_step)));
+  const double angle = rotationAngle(a.T_cell_nozzle.linear(), b.T_cell_nozzle.linear());
+  const int n = std::max({1, static_cast<int>(std::ceil(length / config.collision.edge_step)),
+                          static_cast<int>(std::ceil(angle / kRotationStep))});
   robot::Joints q = a.q;
   for (int k = 1; k <= n; ++k) {
     robot::Joints next = b.q;
@@ -78,7 +81,7 @@ bool edgeFree(const CollisionWorld& world, const Waypoint& a, const Waypoint& b,
       next = *ik;
     }
     if (maxJointStep(q, next) > config.collision.max_joint_step) return false;
-    if (k < n && world.checkArm(next, include_powder)) return false;
+    if (k < n && world.checkArm(next, options)) return false;
     q = next;
   }
   return true;

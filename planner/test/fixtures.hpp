@@ -12,11 +12,11 @@
 
 namespace depowder::planner::test {
 
-/// The VS-6577 on a pedestal beside the box's -x wall, a nozzle 25 cm below the flange (the
+/// The VS-6577 beside the box's -x wall (the default cell's base pose), a nozzle 25 cm below the flange (the
 /// 20 cm deep box needs it: with a shorter tool the forearm reaches the walls' rim).
 inline std::shared_ptr<robot::ArmConfig> cellArm() {
   auto arm = std::make_shared<robot::ArmConfig>();
-  arm->T_cell_base = makePoseRpy({-0.55, 0.0, -0.10}, 0, 0, 0.1);
+  arm->T_cell_base = makePoseRpy({-0.55, 0.0, 0.0}, 0, 0, 0.0);  // as config/cell.yaml
   arm->T_flange_nozzle = makePoseRpy({0.0, 0.0, 0.25}, 0, 0, 0);
   return arm;
 }

@@ -45,7 +45,10 @@ struct CollisionConfig {
   double push_step = 0.002;        ///< m per outward push of a colliding waypoint
   double max_push = 0.02;          ///< m; a waypoint still colliding after this is dropped
   double edge_step = 0.005;        ///< m of tip travel between checks along a path edge
-  double max_joint_step = 0.5;     ///< rad; a larger jump between waypoints is not one smooth move
+  double max_joint_step = 0.3;     ///< rad between IK points along an edge (the driver refuses > 0.35)
+  /// The nozzle tip must stay in this box, cell frame (the driver's robot.workspace, less its margin).
+  Eigen::Vector3d workspace_min{-0.195, -0.145, 0.0};  ///< m
+  Eigen::Vector3d workspace_max{0.195, 0.145, 0.595};  ///< m
 };
 
 /// Moves between path segments, parts and home: joint-space RRTConnect + simplification.

@@ -61,9 +61,10 @@ struct RefinedPath {
 RefinedPath refinePath(const CollisionWorld& world, const Cloud& tips, Tool tool, double speed, PushMode push,
                        const Point& centre, const robot::Joints& seed, const PlannerConfig& config);
 
-/// True if the straight tip motion from a to b (orientation slerped) can be run: IK along it
-/// every edge_step with no joint jump and no collision. `include_powder` as in checkArm.
+/// True if the straight tip motion from a to b (orientation slerped) can be run the way the
+/// driver runs it: IK nearest the previous solution every edge_step (and every 0.05 rad of
+/// nozzle rotation), no joint jump over max_joint_step, no collision, ending at b.q.
 bool edgeFree(const CollisionWorld& world, const Waypoint& a, const Waypoint& b, const PlannerConfig& config,
-              bool include_powder = false);
+              const CheckOptions& options = {});
 
 }  // namespace depowder::planner
