@@ -1,0 +1,87 @@
+// The `robot` section of the default cell: it loads, it is consistent, and its base pose lets
+// the nozzle reach the whole box interior pointing down (IK over a grid); bad values are refused.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "depowder/node/cell.hpp"
+#include "driver_config.hpp"
+
+using namespace depowder;
+using namespace depowder::robot;
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+
+node::CellConfig defaultCell() { return node::loadCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/cell.yaml"); }
+
+void expectError(const std::string& robot_yaml, const std::string& needle) {
+  const std::string yaml = "robot:\n" + robot_yaml;
+  try {
+    readRobotSection(node::loadCellFromString(yaml, "bad.yaml"));
+    ADD_FAILURE() << "accepted:\n" << yaml;
+  } catch (const node::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+  }
+}
+}  // namespace
+
+TEST(DriverConfig, DefaultCellRobotSection) {
+  const node::CellConfig cell = defaultCell();
+  const RobotSection s = readRobotSection(cell);
+  EXPECT_EQ(s.driver.session.client.host, "127.0.0.1");
+  EXPECT_EQ(s.driver.session.client.port, 5007);
+  EXPECT_EQ(s.driver.session.slave_mode, 0x202);
+  EXPECT_NEAR(s.driver.arm.T_flange_nozzle.translation().z(), 0.129, 1e-12);
+  EXPECT_GE(s.node.state_rate_hz, 125.0);
+  EXPECT_EQ(s.driver.session.vacuum_variable, "IO24");
+  // Home: within limits, nozzle inside the workspace, pointing down.
+  const Pose home = forwardNozzle(s.driver.arm, s.driver.arm.q_home);
+  EXPECT_TRUE(s.driver.safety.workspace.contains(home.translation()));
+  EXPECT_LT((home.linear() * Eigen::Vector3d::UnitZ()).z(), -0.99);
+  // The workspace covers the box interior (from the shared box section).
+  const Eigen::Vector3d half = 0.5 * cell.box.size;
+  EXPECT_LE(s.driver.safety.workspace.min.x(), -half.x() + 1e-9);
+  EXPECT_GE(s.driver.safety.workspace.max.x(), half.x() - 1e-9);
+  EXPECT_LE(s.driver.safety.workspace.min.y(), -half.y() + 1e-9);
+  EXPECT_GE(s.driver.safety.workspace.max.y(), half.y() - 1e-9);
+  EXPECT_GE(s.driver.safety.workspace.max.z(), cell.box.size.z());
+}
+
+// Every point of a 1 cm grid over the box interior (up to 10 cm above its rim) is reachable
+// with the nozzle pointing straight down, in 4 headings about the vertical.
+TEST(DriverConfig, BasePoseReachesTheWholeBoxPointingDown) {
+  const node::CellConfig cell = defaultCell();
+  const ArmConfig arm = readRobotSection(cell).driver.arm;
+  const Eigen::Vector3d size = cell.box.size;
+  int n = 0, failed = 0;
+  Joints seed = arm.q_home;
+  for (double x = -size.x() / 2; x <= size.x() / 2 + 1e-9; x += 0.01)
+    for (double y = -size.y() / 2; y <= size.y() / 2 + 1e-9; y += 0.01)
+      for (double z = 0.0; z <= size.z() + 0.1 + 1e-9; z += 0.02)
+        for (double heading : {0.0, kPi / 2, kPi, -kPi / 2}) {
+          const Pose T = makePoseRpy({x, y, z}, 0, kPi, heading);
+          const auto q = inverseNozzle(arm, T, seed);
+          ++n;
+          if (!q) {
+            ++failed;
+            continue;
+          }
+          EXPECT_LT(translationDistance(forwardNozzle(arm, *q), T), 1e-6);
+        }
+  EXPECT_EQ(failed, 0) << "of " << n;
+  EXPECT_GT(n, 10000);
+}
+
+TEST(DriverConfig, RefusesBadValues) {
+  expectError("  bogus: 1\n", "bogus");
+  expectError("  controller: {port: 0}\n", "port");
+  expectError("  controller: {slave_mode: 513}\n", "slave_mode");
+  expectError("  q_min: [0, 0, 0]\n", "6 numbers");
+  expectError("  q_max: [3.2, 2.356194, 2.949606, 3.316126, 2.094395, 6.283185]\n", "VS-6577");
+  expectError("  q_home: [0, -1.9, 0, 0, 0, 0]\n", "q_home");
+  expectError("  workspace: {min: [0, 0, 0], max: [0.1, -0.1, 0.1]}\n", "workspace");
+  expectError("  state_rate: 50\n", "state_rate");
+  expectError("  tool_io: {vacuum: IO24, water: IO26}\n", "water");
+}
