@@ -195,7 +195,7 @@ int main(int argc, char** argv) {
       heartbeat.setStat("render_ms", render_ms);
       heartbeat.setStat("step_ms", step_ms);
       heartbeat.setStat("lag_s", lag_s);
-      heartbeat.setStat("powder_removed_cm3", world->truth().powder_removed_m3 * 1e6);
+      heartbeat.setStat("powder_removed_cm3", world->powderRemoved() * 1e6);
       heartbeat.setState(!fast && lag_s > 0.25 ? heartbeat_t::DEGRADED : heartbeat_t::RUNNING,
                          !fast && lag_s > 0.25 ? "behind real time by " + std::to_string(lag_s) + " s" : "");
       heartbeat.tick();

@@ -24,6 +24,21 @@ void DepthRasterizer::begin(const CameraModel& camera) {
   cx_ = static_cast<float>(camera.cx);
   cy_ = static_cast<float>(camera.cy);
   T_camera_cell_ = camera.T_cell_camera.inverse();
+  const std::size_t pixels = static_cast<std::size_t>(width_) * height_;
+  if (range_per_depth_.size() != pixels || ray_fx_ != camera.fx || ray_fy_ != camera.fy || ray_cx_ != camera.cx ||
+      ray_cy_ != camera.cy) {
+    range_per_depth_.resize(pixels);
+    for (int v = 0; v < height_; ++v)
+      for (int u = 0; u < width_; ++u) {
+        const double xn = (u - camera.cx) / camera.fx, yn = (v - camera.cy) / camera.fy;
+        range_per_depth_[static_cast<std::size_t>(v) * width_ + u] =
+            static_cast<float>(std::sqrt(xn * xn + yn * yn + 1));
+      }
+    ray_fx_ = camera.fx;
+    ray_fy_ = camera.fy;
+    ray_cx_ = camera.cx;
+    ray_cy_ = camera.cy;
+  }
   inv_depth_.assign(static_cast<std::size_t>(width_) * height_, 0.0f);
   ids_.resize(inv_depth_.size());
   normals_.clear();
@@ -125,15 +140,31 @@ void DepthRasterizer::rasterize(const Eigen::Vector3f* v, int normal_id) {
   double r0 = edge(x[1], y[1], x[2], y[2], x0, y0);
   double r1 = edge(x[2], y[2], x[0], y[0], x0, y0);
   double r2 = edge(x[0], y[0], x[1], y[1], x0, y0);
+  const double ddx[3] = {dx0, dx1, dx2};
   for (int j = y0; j <= y1; ++j, r0 += dy0, r1 += dy1, r2 += dy2) {
-    double w0 = r0, w1 = r1, w2 = r2;
-    float* row = inv_depth_.data() + static_cast<std::size_t>(j) * width_;
+    // The row's span where every edge function is >= -kEdgeEps (each is linear in x), widened by
+    // a pixel for round-off; the pixels in it are still tested one by one, so the result is the
+    // same as testing the whole bounding box, only without visiting the empty part of it.
+    double lo = x0, hi = x1;
+    const double row[3] = {r0, r1, r2};
+    for (int e = 0; e < 3; ++e) {
+      if (ddx[e] > 0)
+        lo = std::max(lo, x0 + (-kEdgeEps - row[e]) / ddx[e] - 1);
+      else if (ddx[e] < 0)
+        hi = std::min(hi, x0 + (-kEdgeEps - row[e]) / ddx[e] + 1);
+      else if (row[e] < -kEdgeEps)
+        hi = lo - 1;  // parallel to this edge and outside it
+    }
+    if (lo > hi) continue;
+    const int i0 = static_cast<int>(std::ceil(lo)), i1 = static_cast<int>(std::floor(hi));
+    double w0 = r0 + (i0 - x0) * dx0, w1 = r1 + (i0 - x0) * dx1, w2 = r2 + (i0 - x0) * dx2;
+    float* depth_row = inv_depth_.data() + static_cast<std::size_t>(j) * width_;
     std::int32_t* id_row = ids_.data() + static_cast<std::size_t>(j) * width_;
-    for (int i = x0; i <= x1; ++i, w0 += dx0, w1 += dx1, w2 += dx2) {
+    for (int i = i0; i <= i1; ++i, w0 += dx0, w1 += dx1, w2 += dx2) {
       if (w0 < -kEdgeEps || w1 < -kEdgeEps || w2 < -kEdgeEps) continue;
       const float w = static_cast<float>(w0 * z0 + w1 * z1 + w2 * z2);
-      if (w > row[i]) {
-        row[i] = w;
+      if (w > depth_row[i]) {
+        depth_row[i] = w;
         id_row[i] = normal_id;
       }
     }

@@ -7,8 +7,8 @@
 namespace depowder::sim {
 namespace {
 
-// Calls fn(i, j, z, facing_up) for every grid point whose vertical line crosses triangle abc
-// (not for vertical triangles, which no vertical line crosses in general).
+// Calls fn(i, j, z, facing_up) (the triangle's normal points up) for every grid point whose vertical line crosses
+// triangle abc (not for vertical triangles, which no vertical line crosses in general).
 template <class Fn>
 void forColumns(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const ColumnGrid& g,
                 Fn&& fn) {
@@ -63,8 +63,7 @@ PartSolid::PartSolid(const Mesh& mesh, double column) {
   for (std::size_t k = 0; k < mesh.triangles.size(); ++k) {
     const auto& t = mesh.triangles[k];
     const Eigen::Vector3d &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
-    const bool up = (b - a).cross(c - a).z() > 0;
-    forColumns(a, b, c, grid_, [&](int i, int j, double z, bool) {
+    forColumns(a, b, c, grid_, [&](int i, int j, double z, bool up) {
       // Going up, a face whose normal points down enters the solid (+1), one pointing up leaves it.
       columns_[static_cast<std::size_t>(j) * grid_.nx + i].push_back({static_cast<float>(z), up ? -1 : +1});
     });

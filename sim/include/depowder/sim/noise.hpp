@@ -7,7 +7,7 @@
 //   - grazing drop-outs: beyond grazing_dropout_deg of incidence the return is lost with a
 //     probability that ramps linearly to 1 at 90 deg;
 //   - random drop-outs with probability dropout_prob.
-// One std::mt19937 draw per pixel (high 16 bits: a normal deviate from a 65536-entry
+// One std::mt19937 draw per pixel (high 13 bits: a normal deviate from an 8192-entry
 // quantile table; low 16 bits: the drop-out test), plus extra draws only at edge and
 // grazing pixels; so a frame costs about one generator call per pixel.
 #pragma once

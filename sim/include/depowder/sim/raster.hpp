@@ -41,6 +41,8 @@ class DepthRasterizer {
   /// Unit normal (camera frame) of the surface seen at (u, v); undefined where depth is 0.
   Eigen::Vector3f normal(int u, int v) const { return normals_[ids_[static_cast<std::size_t>(v) * width_ + u]]; }
   const std::vector<float>& inverseDepth() const { return inv_depth_; }
+  /// Per pixel, range / z along its ray (|(x/z, y/z, 1)|); computed when the intrinsics change.
+  const std::vector<float>& rangePerDepth() const { return range_per_depth_; }
   std::int64_t trianglesDrawn() const { return triangles_drawn_; }
 
  private:
@@ -54,7 +56,9 @@ class DepthRasterizer {
   std::vector<float> inv_depth_;          ///< 1/z, 0 = empty
   std::vector<std::int32_t> ids_;         ///< index into normals_
   std::vector<Eigen::Vector3f> normals_;  ///< one per drawn triangle, camera frame
-  std::vector<Eigen::Vector3f> scratch_;  ///< camera-frame vertices of the current mesh
+  std::vector<float> range_per_depth_;
+  double ray_fx_ = 0, ray_fy_ = 0, ray_cx_ = 0, ray_cy_ = 0;  ///< intrinsics range_per_depth_ was made for
+  std::vector<Eigen::Vector3f> scratch_;                      ///< camera-frame vertices of the current mesh
   std::vector<std::uint32_t> index_scratch_;
   std::int64_t triangles_drawn_ = 0;
 };

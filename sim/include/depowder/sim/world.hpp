@@ -135,6 +135,8 @@ class World {
   const PartSpec& part(std::size_t i) const { return parts_[i].spec; }
   /// Index of the part called `name`; throws std::invalid_argument naming the known parts.
   std::size_t partIndex(const std::string& name) const;
+  /// Powder removed by the tools since the start, m^3 (cheap; truth() also has it).
+  double powderRemoved() const { return removed_; }
   const Pose& nozzlePose() const { return T_cell_nozzle_; }
   Tool tool() const { return tool_; }
   bool nozzlePresent() const { return nozzle_present_; }
