@@ -54,25 +54,22 @@ class ErrorLog {
   std::map<FrameStatus, Entry> entries_;
 };
 
-// Processing time per published cloud: the work spent on its frames plus merging and encoding.
-class WorkTimer {
+// Percentiles of the last 300 samples of a figure.
+class Window {
  public:
-  void add(double ms) { pending_ += ms; }
-  void finish(double ms) {
-    samples_.push_back(pending_ + ms);
-    pending_ = 0;
+  void add(double v) {
+    samples_.push_back(v);
     if (samples_.size() > 300) samples_.pop_front();
   }
   double percentile(double q) const {
     if (samples_.empty()) return 0;
     std::vector<double> s(samples_.begin(), samples_.end());
-    const std::size_t k = static_cast<std::size_t>(q * (s.size() - 1));
+    const std::size_t k = static_cast<std::size_t>(q * static_cast<double>(s.size() - 1) + 0.5);
     std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(k), s.end());
     return s[k];
   }
 
  private:
-  double pending_ = 0;
   std::deque<double> samples_;
 };
 
@@ -107,6 +104,7 @@ class CameraNode {
     bus_.subscribe<depth_image_t>(options_.input, [this](const depth_image_t& msg, const std::string&) {
       const auto t0 = Clock::now();
       const std::int64_t arrival = nowUtime();
+      input_ms_.add((arrival - msg.utime) / 1000.0);
       DepthImage image;
       PinholeCamera camera;
       FrameError e = fromMsg(msg, image, camera);
@@ -115,7 +113,7 @@ class CameraNode {
       else
         proxy_.reject(e);
       if (!e.ok()) drop(e);
-      timer_.add(msSince(t0));
+      pending_ms_ += msSince(t0);
     });
     std::fprintf(stderr, "depowder-camera: %s -> %s (%zu cameras in %s)\n", bus_.channel(options_.input).c_str(),
                  bus_.channel(options_.output).c_str(), options_.cell.cameras.size(), options_.cell.file.c_str());
@@ -159,7 +157,7 @@ class CameraNode {
       else
         proxy_.reject(e);
       if (!e.ok()) drop(e);
-      timer_.add(msSince(t0));
+      pending_ms_ += msSince(t0);
       publishReady();
       updateHealth();
       heartbeat_.tick();
@@ -187,7 +185,9 @@ class CameraNode {
       msg.source_utimes = cloud.source_utimes;
       msg.num_sources = static_cast<std::int32_t>(msg.sources.size());
       bus_.publish(options_.output, msg);
-      timer_.finish(msSince(t0));
+      frame_ms_.add(pending_ms_ + msSince(t0));
+      pending_ms_ = 0;
+      latency_ms_.add((nowUtime() - cloud.utime) / 1000.0);
       last_points_ = msg.num_points;
       last_bytes_ = msg.getEncodedSize();
       last_outliers_ = static_cast<double>(cloud.outliers);
@@ -203,8 +203,12 @@ class CameraNode {
     for (std::size_t s = 1; s < c.by_status.size(); ++s)
       heartbeat_.setStat(std::string("dropped_") + toString(static_cast<FrameStatus>(s)),
                          static_cast<double>(c.by_status[s]));
-    heartbeat_.setStat("frame_ms_p50", timer_.percentile(0.5));
-    heartbeat_.setStat("frame_ms_p99", timer_.percentile(0.99));
+    heartbeat_.setStat("frame_ms_p50", frame_ms_.percentile(0.5));
+    heartbeat_.setStat("frame_ms_p99", frame_ms_.percentile(0.99));
+    heartbeat_.setStat("input_ms_p50", input_ms_.percentile(0.5));
+    heartbeat_.setStat("input_ms_p99", input_ms_.percentile(0.99));
+    heartbeat_.setStat("latency_ms_p50", latency_ms_.percentile(0.5));
+    heartbeat_.setStat("latency_ms_p99", latency_ms_.percentile(0.99));
     heartbeat_.setStat("points_out", last_points_);
     heartbeat_.setStat("bytes_out", last_bytes_);
     heartbeat_.setStat("outliers_out", last_outliers_);
@@ -239,7 +243,10 @@ class CameraNode {
   node::Heartbeat heartbeat_;
   CameraProxy proxy_;
   ErrorLog errors_;
-  WorkTimer timer_;
+  double pending_ms_ = 0;  ///< work on frames since the last published cloud
+  Window frame_ms_;        ///< processing per published cloud: its frames' work plus merging and encoding
+  Window input_ms_;        ///< DEPTH utime to its arrival here (transport)
+  Window latency_ms_;      ///< newest source utime to POINTS published
   std::int64_t seq_ = 0;
   double last_points_ = 0, last_bytes_ = 0, last_outliers_ = 0;
   std::int64_t reported_drops_ = 0;

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -85,21 +86,33 @@ int main(int argc, char** argv) {
     bytes.push_back(static_cast<double>(c.msg.getEncodedSize()));
     if (i > 0) gaps += c.msg.seq - r.clouds[i - 1].msg.seq - 1;
   }
-  const long long lost = static_cast<long long>(run.steps) - static_cast<long long>(r.clouds.size());
+  // Lost = published by depowder-camera (its last heartbeat) but not received here.
+  const long long published = static_cast<long long>(r.stat("frames_out"));
+  const long long lost = published - static_cast<long long>(r.clouds.size());
   const double span_s =
       r.clouds.size() > 1 ? (r.clouds.back().receive_utime - r.clouds.front().receive_utime) * 1e-6 : 0.0;
   const double p99 = percentile(latency_ms, 0.99);
-  std::printf("  time steps published       %d (DEPTH messages: %d, %.0f kB each)\n", run.steps, 2 * run.steps,
+  double load[3] = {0, 0, 0};
+  getloadavg(load, 3);
+  std::printf("  DEPTH time steps sent      %d (%d messages of %.0f kB)\n", run.steps, 2 * run.steps,
               width * height * 2 / 1000.0);
+  std::printf("  POINTS published           %lld (partial: %g; depowder-camera dropped %lld frames)\n", published,
+              r.stat("frames_partial"), static_cast<long long>(r.last_heartbeat.dropped));
   std::printf("  POINTS received            %zu   lost %lld   seq gaps %lld\n", r.clouds.size(), lost, gaps);
   std::printf("  POINTS rate                %.2f Hz\n", span_s > 0 ? (r.clouds.size() - 1) / span_s : 0.0);
   std::printf("  POINTS size                median %.0f B, max %.0f B (%.1f kB)\n", percentile(bytes, 0.5),
               percentile(bytes, 1.0), percentile(bytes, 1.0) / 1000);
   std::printf("  DEPTH-to-POINTS latency    p50 %.2f ms   p99 %.2f ms   max %.2f ms\n", percentile(latency_ms, 0.5),
               p99, percentile(latency_ms, 1.0));
-  std::printf("  depowder-camera (heartbeat) frame_ms p50 %.2f p99 %.2f, partial %g, dropped %lld, cpu %.0f %%\n",
-              r.stat("frame_ms_p50"), r.stat("frame_ms_p99"), r.stat("frames_partial"),
-              static_cast<long long>(r.last_heartbeat.dropped), r.last_heartbeat.cpu_percent);
+  std::printf(
+      "  depowder-camera (last 300) DEPTH in p50 %.2f p99 %.2f ms, processing p50 %.2f p99 %.2f ms, DEPTH-to-"
+      "publish p50 %.2f p99 %.2f ms\n",
+      r.stat("input_ms_p50"), r.stat("input_ms_p99"), r.stat("frame_ms_p50"), r.stat("frame_ms_p99"),
+      r.stat("latency_ms_p50"), r.stat("latency_ms_p99"));
+  std::printf("  depowder-camera CPU        %.0f %% of a core (median of its heartbeats)\n",
+              percentile(r.cpu_percent, 0.5));
+  std::printf("  machine                    load average %.1f %.1f %.1f on %ld cores\n", load[0], load[1], load[2],
+              sysconf(_SC_NPROCESSORS_ONLN));
   const bool ok = lost == 0 && gaps == 0 && p99 < 15.0 && percentile(bytes, 1.0) < 1e6;
   std::printf("  goals (no POINTS lost, p99 < 15 ms, < 1 MB): %s\n", ok ? "met" : "MISSED");
   fs::remove_all(tmp);

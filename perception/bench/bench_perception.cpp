@@ -6,9 +6,12 @@
 //   4. whether isolated-voxel removal pays at 5 mm.
 //   build/bin/bench_perception [--frames 300]
 #include <sched.h>
+#include <time.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 
@@ -24,6 +27,13 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 double ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+
+// CPU time of this thread, ms: the work done on one core, whatever else the machine runs.
+double cpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -46,12 +56,14 @@ struct Frames {
 // One time step as the process does it: decode both DEPTH messages, deproject, merge,
 // downsample, encode POINTS to bytes.
 struct StepTimes {
+  double cpu = 0;  ///< thread CPU time of the whole step
   double total = 0, decode = 0, deproject = 0, merge = 0, encode = 0;
   std::size_t bytes = 0, points = 0;
 };
 
 StepTimes step(CameraProxy& proxy, const Frames& f, std::size_t k, std::int64_t utime, double resolution) {
   StepTimes t;
+  const double c0 = cpuMs();
   const auto t0 = Clock::now();
   for (int c = 0; c < 2; ++c) {
     const auto a = Clock::now();
@@ -80,6 +92,7 @@ StepTimes step(CameraProxy& proxy, const Frames& f, std::size_t k, std::int64_t 
   t.merge = ms(m0, m1);
   t.encode = ms(m1, e1);
   t.total = ms(t0, e1);
+  t.cpu = cpuMs() - c0;
   t.bytes = wire.size();
   t.points = static_cast<std::size_t>(msg.num_points);
   return t;
@@ -118,12 +131,13 @@ int main(int argc, char** argv) {
   PerceptionConfig cfg;
   {
     CameraProxy proxy(cfg, box);
-    std::vector<double> total, decode, deproject, merge, encode, bytes;
+    std::vector<double> cpu, total, decode, deproject, merge, encode, bytes;
     std::int64_t utime = 1'700'000'000'000'000;
     for (int i = 0; i < n_frames + 20; ++i, utime += 33'333) {
       const StepTimes t = step(proxy, f, static_cast<std::size_t>(i), utime, cfg.resolution);
       if (i < 20) continue;  // warm-up
       total.push_back(t.total);
+      cpu.push_back(t.cpu);
       decode.push_back(t.decode);
       deproject.push_back(t.deproject);
       merge.push_back(t.merge);
@@ -132,9 +146,15 @@ int main(int argc, char** argv) {
     }
     std::printf("Camera proxy, 2 x 640x480 depth frames -> one POINTS, %d merged frames, %s\n", n_frames,
                 pinned ? "pinned to CPU 0" : "not pinned");
-    std::printf("  per merged frame        median %.2f ms, p90 %.2f ms, max %.2f ms   (goal: median <= 5 ms) %s\n",
-                quantile(total, 0.5), quantile(total, 0.9), quantile(total, 1.0),
-                quantile(total, 0.5) <= 5.0 ? "met" : "MISSED");
+    double load[3] = {0, 0, 0};
+    getloadavg(load, 3);
+    std::printf(
+        "  per merged frame, CPU   median %.2f ms, p90 %.2f ms, max %.2f ms   (goal: median <= 5 ms on one core) %s\n",
+        quantile(cpu, 0.5), quantile(cpu, 0.9), quantile(cpu, 1.0), quantile(cpu, 0.5) <= 5.0 ? "met" : "MISSED");
+    std::printf(
+        "  per merged frame, wall  median %.2f ms, p90 %.2f ms, max %.2f ms   (load average %.1f on %ld cores)\n",
+        quantile(total, 0.5), quantile(total, 0.9), quantile(total, 1.0), load[0], sysconf(_SC_NPROCESSORS_ONLN));
+    std::printf("  wall-clock parts:\n");
     std::printf("    decode DEPTH x2       median %.2f ms\n", quantile(decode, 0.5));
     std::printf("    deproject+crop x2     median %.2f ms\n", quantile(deproject, 0.5));
     std::printf("    merge+voxel           median %.2f ms\n", quantile(merge, 0.5));

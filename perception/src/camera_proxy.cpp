@@ -16,7 +16,9 @@ CameraProxy::CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& 
       grid_(crop_, config.voxel_leaf) {}
 
 FrameError CameraProxy::addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival) {
-  return accept(deproject(image, camera, crop_), camera.name, image.utime, arrival);
+  auto it = deprojectors_.find(camera.name);
+  if (it == deprojectors_.end()) it = deprojectors_.emplace(camera.name, Deprojector(crop_)).first;
+  return accept(it->second(image, camera), camera.name, image.utime, arrival);
 }
 
 FrameError CameraProxy::addCameraPoints(const Cloud& camera_points, std::int64_t utime, const PinholeCamera& camera,

@@ -1,6 +1,8 @@
 #include "depowder/perception/depth.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace depowder::perception {
@@ -106,6 +108,122 @@ CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, cons
         continue;
       }
       out.points.push_back(p);
+    }
+  }
+  n.kept = out.points.size();
+  if (n.kept + n.outside_crop == 0) {
+    std::ostringstream s;
+    s << "frame " << image.frame << " has no valid return (" << n.no_return << " of " << n.inputs << " pixels empty, "
+      << n.out_of_range << " out of range)";
+    out.error = fail(FrameStatus::kNoValidReturns, camera.name, s.str());
+  }
+  return out;
+}
+
+bool Deprojector::current(const DepthImage& image, const PinholeCamera& camera) const {
+  const PinholeCamera& c = camera_;
+  return !limits_.empty() && image.depth_unit == unit_ && camera.width == c.width && camera.height == c.height &&
+         image.width == c.width && image.height == c.height && camera.fx == c.fx && camera.fy == c.fy &&
+         camera.cx == c.cx && camera.cy == c.cy && camera.min_range == c.min_range && camera.max_range == c.max_range &&
+         camera.T_cell_camera.matrix() == c.T_cell_camera.matrix();
+}
+
+void Deprojector::build(const DepthImage& image, const PinholeCamera& camera) {
+  ++rebuilds_;
+  camera_ = camera;
+  camera_.width = image.width;
+  camera_.height = image.height;
+  unit_ = image.depth_unit;
+  const int w = image.width, h = image.height;
+  const Eigen::Matrix3d& R = camera.T_cell_camera.linear();
+  const Eigen::Vector3d t = camera.T_cell_camera.translation();
+  // The same per-column / per-row terms as deproject(), so the same arithmetic decides.
+  column_.resize(static_cast<std::size_t>(w));
+  row_.resize(static_cast<std::size_t>(h));
+  for (int u = 0; u < w; ++u) column_[u] = R.col(0) * ((u - camera.cx) / camera.fx);
+  for (int v = 0; v < h; ++v) row_[v] = R.col(1) * ((v - camera.cy) / camera.fy) + R.col(2);
+  const double unit = unit_;
+  const double min2 = camera.min_range * camera.min_range, max2 = camera.max_range * camera.max_range;
+  limits_.resize(static_cast<std::size_t>(w) * h);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      const Eigen::Vector3d ray = column_[u] + row_[v];
+      const double n2 = ray.squaredNorm();
+      // Range: the first and last count that deproject()'s test accepts (it is monotonic in
+      // the count); start from the closed form and step to the exact boundary.
+      auto above_min = [&](long c) {
+        const double z = static_cast<double>(c) * unit;
+        return !(z * z * n2 < min2);
+      };
+      auto below_max = [&](long c) {
+        const double z = static_cast<double>(c) * unit;
+        return !(z * z * n2 > max2);
+      };
+      const double norm = std::sqrt(n2);
+      long lo = std::clamp<long>(static_cast<long>(std::ceil(camera.min_range / (unit * norm))), 1, 65536);
+      while (lo > 1 && above_min(lo - 1)) --lo;
+      while (lo <= 65535 && !above_min(lo)) ++lo;
+      long hi = std::clamp<long>(static_cast<long>(std::floor(camera.max_range / (unit * norm))), 0, 65535);
+      while (hi < 65535 && below_max(hi + 1)) ++hi;
+      while (hi >= 1 && !below_max(hi)) --hi;
+      // Crop: the depths at which t + z ray is inside the box (slab method), widened by a count.
+      double z0 = 0, z1 = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        if (std::abs(ray[k]) < 1e-12) {
+          if (t[k] < crop_.min()[k] || t[k] > crop_.max()[k]) z1 = -1;
+          continue;
+        }
+        const double a = (crop_.min()[k] - t[k]) / ray[k], b = (crop_.max()[k] - t[k]) / ray[k];
+        z0 = std::max(z0, std::min(a, b));
+        z1 = std::min(z1, std::max(a, b));
+      }
+      long clo = 1, chi = 0;  // empty
+      if (z1 >= z0) {
+        clo = std::clamp<long>(static_cast<long>(std::floor(z0 / unit)) - 1, 1, 65535);
+        chi = std::clamp<long>(static_cast<long>(std::min(std::ceil(z1 / unit), 70000.0)) + 1, 0, 65535);
+      }
+      Limits& L = limits_[static_cast<std::size_t>(v) * w + u];
+      L.range_lo = static_cast<std::uint16_t>(std::min(lo, 65535L));
+      L.range_hi = static_cast<std::uint16_t>(lo > 65535 ? 0 : hi);
+      L.crop_lo = static_cast<std::uint16_t>(clo);
+      L.crop_hi = static_cast<std::uint16_t>(chi);
+      if (lo > hi) {  // nothing in range: make the range test reject every count
+        L.range_lo = 65535;
+        L.range_hi = 0;
+      }
+    }
+}
+
+CameraCloud Deprojector::operator()(const DepthImage& image, const PinholeCamera& camera) {
+  CameraCloud out;
+  out.error = checkDepthImage(image, camera);
+  if (!out.error.ok()) return out;
+  if (!current(image, camera)) build(image, camera);
+  const int w = image.width, h = image.height;
+  const double unit = unit_;
+  const Eigen::Vector3d t = camera_.T_cell_camera.translation();
+  FrameCounts& n = out.counts;
+  n.inputs = image.depth.size();
+  out.points.reserve(n.inputs / 4);
+  const std::uint16_t* d = image.depth.data();
+  const Limits* L = limits_.data();
+  for (int v = 0; v < h; ++v) {
+    const Eigen::Vector3d& rv = row_[v];
+    for (int u = 0; u < w; ++u, ++d, ++L) {
+      const std::uint16_t raw = *d;
+      if (raw == 0) {
+        ++n.no_return;
+      } else if (raw < L->range_lo || raw > L->range_hi) {
+        ++n.out_of_range;
+      } else if (raw < L->crop_lo || raw > L->crop_hi) {
+        ++n.outside_crop;
+      } else {
+        const Eigen::Vector3d p = t + (raw * unit) * (column_[u] + rv);
+        if (inside(crop_, p))
+          out.points.push_back(p);
+        else
+          ++n.outside_crop;
+      }
     }
   }
   n.kept = out.points.size();

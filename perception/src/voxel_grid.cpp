@@ -32,19 +32,20 @@ std::int32_t VoxelGrid::slotAt(const Eigen::Vector3i& c) const {
 }
 
 void VoxelGrid::add(const Cloud& points) {
+  // Voxel coordinates relative to the region's first voxel: floor(p / leaf) - lo. Inside the
+  // region they are >= 0, where a truncating conversion is floor (and no libm call).
   const double inv = 1.0 / leaf_;
+  const Eigen::Array3d lo = lo_.cast<double>().array();
+  const std::uint64_t nx = static_cast<std::uint64_t>(dims_.x()), nxy = nx * static_cast<std::uint64_t>(dims_.y());
+  voxels_.reserve(voxels_.size() + points.size() / 4);
   for (const Eigen::Vector3d& p : points) {
-    if (!p.allFinite()) {
-      ++outside_;
+    const Eigen::Array3d f = p.array() * inv - lo;
+    if (!(f.x() >= 0 && f.y() >= 0 && f.z() >= 0 && f.x() < dims_.x() && f.y() < dims_.y() && f.z() < dims_.z())) {
+      ++outside_;  // also NaN
       continue;
     }
-    const Eigen::Vector3i c = (p * inv).array().floor().cast<int>().matrix() - lo_;
-    if ((c.array() < 0).any() || (c.array() >= dims_.array()).any()) {
-      ++outside_;
-      continue;
-    }
-    const std::uint64_t cell =
-        (static_cast<std::uint64_t>(c.z()) * dims_.y() + static_cast<std::uint64_t>(c.y())) * dims_.x() + c.x();
+    const std::uint64_t cell = static_cast<std::uint64_t>(f.z()) * nxy + static_cast<std::uint64_t>(f.y()) * nx +
+                               static_cast<std::uint64_t>(f.x());
     std::int32_t* slot = findSlot(cell);
     if (*slot < 0) {
       *slot = static_cast<std::int32_t>(voxels_.size());

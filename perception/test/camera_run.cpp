@@ -37,6 +37,8 @@ CameraRunResult runCamera(const CameraRunConfig& config) {
     std::lock_guard<std::mutex> lock(mutex);
     result.last_heartbeat = msg;
     ++result.heartbeats;
+    if (msg.state == heartbeat_t::RUNNING || msg.state == heartbeat_t::DEGRADED)
+      result.cpu_percent.push_back(msg.cpu_percent);
     started = true;
   });
 

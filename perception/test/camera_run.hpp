@@ -41,6 +41,7 @@ struct CameraRunResult {
   std::vector<std::vector<std::int64_t>> published_utimes;  ///< [step][camera], 0 = not published
   heartbeat_t last_heartbeat;                               ///< the last one depowder-camera sent (STOPPING at the end)
   int heartbeats = 0;
+  std::vector<double> cpu_percent;             ///< of every RUNNING / DEGRADED heartbeat
   int exit_code = -1;                          ///< of depowder-camera after SIGTERM
   std::string error;                           ///< set when the run could not be carried out
   double stat(const std::string& name) const;  ///< a heartbeat stat, NaN if absent

@@ -168,13 +168,21 @@ TEST(CameraNetns, RecordedScansPlayInOrderPastACorruptFile) {
   REQUIRE_PRIVATE_NETWORK();
   const fs::path dir = fs::temp_directory_path() / uniquePrefix("scans");
   fs::create_directories(dir);
-  // 1: a PLY of 3 points 1 cm apart inside the box, 2: corrupt, 3: a PCD of 2 points.
-  // The scans' camera frame is the cell frame (--camera-pose 0,0,0,0,0,0).
-  std::ofstream(dir / "1.ply") << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                                  "property float z\nend_header\n0 0 0.1\n0.01 0 0.1\n0.02 0 0.1\n";
+  // 1: a PLY of a 3 x 3 patch at 5 mm spacing (one point in the middle of each 5 mm voxel),
+  // 2: corrupt, 3: a PCD of a 2 x 2 patch and one point outside the box. Patches, because a
+  // lone voxel is removed as an outlier. The scans' camera frame is the cell frame.
+  {
+    std::ofstream ply(dir / "1.ply");
+    ply << "ply\nformat ascii 1.0\nelement vertex 9\nproperty float x\nproperty float y\nproperty float z\n"
+           "end_header\n";
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) ply << 0.0025 + 0.005 * i << " " << 0.0025 + 0.005 * j << " 0.1025\n";
+  }
   std::ofstream(dir / "2.pcd") << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4\n";
-  std::ofstream(dir / "3.pcd") << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                                  "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0.05 0.05 0.05\n0.5 0.5 0.5\n";
+  std::ofstream(dir / "3.pcd")
+      << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+         "WIDTH 5\nHEIGHT 1\nPOINTS 5\nDATA ascii\n0.0525 0.0525 0.0525\n0.0575 0.0525 0.0525\n"
+         "0.0525 0.0575 0.0525\n0.0575 0.0575 0.0525\n0.5 0.5 0.5\n";
   const std::string prefix = uniquePrefix("files");
   node::Bus listener(kListenUrl, prefix);
   std::vector<point_cloud_t> clouds;
@@ -196,13 +204,13 @@ TEST(CameraNetns, RecordedScansPlayInOrderPastACorruptFile) {
   for (int i = 0; i < 10; ++i) listener.spinOnce(20);  // the last heartbeat
   EXPECT_EQ(exit_code, 0) << readFile(log);
   ASSERT_EQ(clouds.size(), 2u) << readFile(log);
-  EXPECT_EQ(clouds[0].num_points, 3);  // three 5 mm voxels
-  EXPECT_EQ(clouds[1].num_points, 1);  // the second point is outside the box
+  EXPECT_EQ(clouds[0].num_points, 9);  // nine 5 mm voxels
+  EXPECT_EQ(clouds[1].num_points, 4);  // the fifth point is outside the box
   EXPECT_EQ(clouds[0].sources, std::vector<std::string>{"SCANNER"});
   EXPECT_EQ(clouds[1].seq, 1);
   const auto decoded = node::decodeCloud(clouds[1]);
   ASSERT_TRUE(decoded);
-  EXPECT_LT((decoded->at(0) - Eigen::Vector3d(0.05, 0.05, 0.05)).norm(), 0.0005);
+  EXPECT_LT((decoded->at(0) - Eigen::Vector3d(0.0525, 0.0525, 0.0525)).norm(), 0.0005);
   EXPECT_NE(readFile(log).find("2.pcd: not a PCD file (no DATA line in the header)"), std::string::npos)
       << readFile(log);
   bool counted = false;

@@ -28,6 +28,7 @@ TEST(CameraProxy, TwoCamerasMergeIntoOneCroppedDownsampledCloud) {
   const auto rig = defaultRig(320, 240);
   const Scene s = scene();
   PerceptionConfig cfg;
+  cfg.outlier_min_neighbours = 0;  // compared with plain voxelDownsample below
   CameraProxy proxy(cfg, kBox, {"LEFT", "RIGHT"});
   const DepthImage left = render(s, rig[0], kT0), right = render(s, rig[1], kT0 + 2000);
   ASSERT_TRUE(proxy.addDepth(left, rig[0], kT0 + 1000).ok());

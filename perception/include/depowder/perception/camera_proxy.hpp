@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -66,6 +67,7 @@ class CameraProxy {
 
   PerceptionConfig config_;
   Eigen::AlignedBox3d crop_;
+  std::map<std::string, Deprojector> deprojectors_;  ///< per camera name
   FrameMerger merger_;
   VoxelGrid grid_;
   ProxyCounters counters_;

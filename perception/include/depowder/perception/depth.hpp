@@ -65,6 +65,33 @@ FrameError checkDepthImage(const DepthImage& image, const PinholeCamera& camera)
 /// checkDepthImage) and a frame with no valid return at all.
 CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, const Eigen::AlignedBox3d& crop);
 
+/// deproject() for a stream of frames: per-pixel tables are kept between frames, holding for
+/// every pixel the interval of depth counts that lies in range and the interval whose point
+/// can lie in the crop box (the ray's slab intersection with the box), so a pixel that cannot
+/// land in the box costs a few integer compares. The tables are rebuilt when the camera's
+/// size, intrinsics, pose or range, or the depth unit, change. Output identical to deproject().
+class Deprojector {
+ public:
+  explicit Deprojector(const Eigen::AlignedBox3d& crop) : crop_(crop) {}
+  CameraCloud operator()(const DepthImage& image, const PinholeCamera& camera);
+  int rebuilds() const { return rebuilds_; }  ///< how often the tables were (re)computed
+
+ private:
+  struct Limits {
+    std::uint16_t range_lo, range_hi;  ///< counts in [min_range, max_range]
+    std::uint16_t crop_lo, crop_hi;    ///< counts that may land in the crop box (one count of slack)
+  };
+  bool current(const DepthImage& image, const PinholeCamera& camera) const;
+  void build(const DepthImage& image, const PinholeCamera& camera);
+
+  Eigen::AlignedBox3d crop_;
+  PinholeCamera camera_;
+  double unit_ = 0;
+  std::vector<Limits> limits_;
+  std::vector<Eigen::Vector3d> column_, row_;
+  int rebuilds_ = 0;
+};
+
 /// The same for a recorded scan given as camera-frame points (organised or not):
 /// non-finite points and points whose distance from the camera is out of range are dropped;
 /// intrinsics are unused.
