@@ -279,8 +279,13 @@ bool Driver::slaveCycle() {
   }
 
   // 5. Safety: stale plan, planner heartbeat, workspace -> controlled stop.
+  // A finished plan has nothing left to stop, but its last tool state must not outlive it.
+  if (have_plan && generator_.finished() && generator_.current().tool != Tool::Off &&
+      checkNewPlan(cfg_.safety, wall_(), plan_utime, hb_age).stop != StopReason::None) {
+    generator_.stop();
+  }
   SafetyInputs in;
-  in.following = have_plan && !safety_stopped_;
+  in.following = have_plan && !safety_stopped_ && !generator_.finished();
   in.now_utime = wall_();
   in.plan_utime = plan_utime;
   in.heartbeat_age_s = hb_age;

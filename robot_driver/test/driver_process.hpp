@@ -1,0 +1,123 @@
+// depowder-driver as a process against an in-process b-CAP emulator, over udpm: for the
+// process test and the safety benchmark. Run only inside a private network namespace
+// (test/netns-run), so the multicast never leaves it.
+#pragma once
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/nozzle_plan_t.hpp"
+#include "depowder/robot/kinematics.hpp"
+#include "depowder/sim/bcap_emulator.hpp"
+
+namespace depowder::robot::test {
+
+inline const char* kUdpmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+class DriverProcess {
+ public:
+  /// `robot_yaml`: extra lines of the robot section (indented by two spaces).
+  explicit DriverProcess(const std::string& robot_yaml = "") {
+    sim::BcapEmulatorConfig ecfg;
+    ecfg.port = 0;
+    ecfg.motor_on_time_s = 0.02;
+    emu = std::make_unique<sim::BcapEmulator>(ecfg);
+    std::string err;
+    if (!emu->start(&err)) throw std::runtime_error(err);
+    char dir[] = "/tmp/depowder_driver_lcm_XXXXXX";
+    if (!mkdtemp(dir)) throw std::runtime_error("mkdtemp failed");
+    dir_ = dir;
+    const std::string cell = dir_ + "/cell.yaml";
+    std::ofstream(cell) << "robot:\n"
+                        << "  controller: {port: " << emu->port() << ", reconnect_period: 0.1}\n"
+                        << "  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
+                        << "  tool_offset: {xyz: [0, 0, 0.129], rpy_deg: [0, 0, 0]}\n"
+                        << "  heartbeat_period: 0.2\n"
+                        << robot_yaml;
+    arm.T_cell_base = makePoseRpy({-0.55, 0, 0}, 0, 0, 0);
+    arm.T_flange_nozzle = makePoseRpy({0, 0, 0.129}, 0, 0, 0);
+    prefix = "DRIVER_TEST_" + std::to_string(getpid()) + "_";
+    child = fork();
+    if (child == 0) {
+      const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-driver";
+      execl(exe.c_str(), "depowder-driver", "--cell", cell.c_str(), "--url", kUdpmUrl, "--prefix", prefix.c_str(),
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    bus = std::make_unique<node::Bus>(kUdpmUrl, prefix);
+  }
+  ~DriverProcess() {
+    if (child > 0) {
+      kill(child, SIGKILL);
+      waitpid(child, nullptr, 0);
+    }
+    bus.reset();
+    emu->stop();
+    std::system(("rm -rf '" + dir_ + "'").c_str());
+  }
+  /// SIGTERM and wait; the exit status, -1 if it did not exit normally.
+  int terminate() {
+    kill(child, SIGTERM);
+    int status = 0;
+    waitpid(child, &status, 0);
+    child = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  bool spinUntil(const std::function<bool()>& done, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (!done() && std::chrono::steady_clock::now() < end) bus->spinOnce(2);
+    return done();
+  }
+  void plannerHeartbeat() {
+    heartbeat_t h{};
+    h.utime = node::nowUtime();
+    h.process = "depowder-planner";
+    h.host = "test";
+    h.pid = 1;
+    h.state = heartbeat_t::RUNNING;
+    h.num_stats = 0;
+    bus->publish("HEARTBEAT", h);
+  }
+  nozzle_plan_t plan(std::int64_t id, const std::vector<Pose>& poses, double speed, std::int8_t tool = 1) {
+    nozzle_plan_t p;
+    p.utime = node::nowUtime();
+    p.plan_id = id;
+    p.part = "test";
+    p.phase = 0;
+    p.reason = "test";
+    for (const Pose& T : poses) {
+      waypoint_t w;
+      w.T_cell_nozzle = node::toMsg(T);
+      w.tool = tool;
+      w.speed = speed;
+      for (double& q : w.q) q = 0;
+      p.waypoints.push_back(w);
+    }
+    p.num_waypoints = static_cast<std::int32_t>(p.waypoints.size());
+    return p;
+  }
+  Eigen::Vector3d emuNozzle() const { return forwardNozzle(arm, emu->joints().q).translation(); }
+
+  std::unique_ptr<sim::BcapEmulator> emu;
+  std::unique_ptr<node::Bus> bus;
+  ArmConfig arm;
+  std::string prefix;
+  pid_t child = -1;
+
+ private:
+  std::string dir_;
+};
+
+}  // namespace depowder::robot::test
