@@ -1,0 +1,69 @@
+// The tracker's configuration: one plain struct with a default and a unit on every
+// field (YAML keys in config/cell.yaml `tracker:` mirror the field names).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "depowder/geometry.hpp"
+#include "depowder/progress/progress.hpp"
+
+namespace depowder::tracker {
+
+/// The three methods of the paper's comparison (Sec. V-A "Baseline Comparison"). They share
+/// every line of the tracker except the template update policy (update_policy.hpp).
+enum class Method {
+  kCu,          ///< CU-ICP: template re-derived only when Eq. 1 fires (Alg. 1)
+  kContinuous,  ///< Continuous ICP: template re-derived every frame (Strategy 2)
+  kVanilla,     ///< Vanilla ICP: the whole CAD model, never updated (Strategy 1)
+};
+
+/// "cu", "continuous", "vanilla".
+const char* toString(Method method);
+/// The method called `name`, or nullopt.
+std::optional<Method> methodFromString(const std::string& name);
+
+/// The registration (Alg. 1, line 8). Defaults measured with depowder-bench.
+struct IcpConfig {
+  int max_iterations = 30;                 ///< per frame (the authors: 30)
+  double max_correspondence_distance = 0;  ///< m; 0 = the part's xi (as the authors)
+  double convergence_translation = 2e-4;   ///< m: stop when an update moves less than this...
+  double convergence_rotation = 2e-3;      ///< rad: ...and rotates less than this (0.11 deg)
+  double kernel_scale = 0.002;       ///< m, Geman-McClure scale on the point-to-plane residual; 0 = plain least squares
+  double point_to_point_weight = 0;  ///< weight of a point-to-point term next to point-to-plane; 0 = none
+  double motion_prior = 0.1;         ///< weight of a prior towards the previous pose, as a fraction of the matches; it
+                              ///< holds what the scan cannot see (a tube's spin); 0 = none (one-off registration)
+  double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
+  int min_correspondences = 12;    ///< fewer: the fit is refused (6 unknowns; keep well above)
+};
+
+/// When a fit is believed (TrackResult::status). The same rule for all three methods.
+struct StatusConfig {
+  double tracking_min_inlier_ratio = 0.5;  ///< below: DEGRADED (pose kept but doubtful)
+  double tracking_max_rms = 0.003;         ///< m RMS point-to-plane residual; above: DEGRADED
+  double lost_min_inlier_ratio = 0.1;      ///< below: LOST (pose refused, last good pose kept)
+  double lost_max_rms = 0.006;             ///< m; above: LOST
+};
+
+struct TrackerConfig {
+  Method method = Method::kCu;
+  double delta1_deg = 30;         ///< deg, Eq. 1 rotation threshold (paper Sec. V-A: 30 deg)
+  double delta2 = 0.05;           ///< m, Eq. 1 translation threshold (paper: 5 cm)
+  double delta3 = 0.15;           ///< Eq. 1 progress threshold, fraction (paper: 15 %)
+  double eta1 = 0.30;             ///< Phase 1 ends above this progress: no ICP at or below (Sec. III-B)
+  double cad_spacing = 0.0025;    ///< m, spacing of P_cad's surface samples (template resolution)
+  double icp_leaf = 0.005;        ///< m, the template is thinned to one point per voxel for ICP (scan: 5 mm voxels)
+  double crop_margin = 0.03;      ///< m, the scan is cropped to the CAD bounding box at the predicted pose + this
+  int min_scan_points = 30;       ///< fewer points in the crop: frame refused, last good pose kept
+  std::vector<Point> viewpoints;  ///< camera positions, cell frame, m (the node takes the cell's cameras); ICP
+                                  ///< skips template points facing away from all of them. Empty: no culling
+  IcpConfig icp;
+  StatusConfig status;
+  progress::ProgressConfig progress;  ///< Eq. 2 settings for the update rule (Alg. 1, line 11)
+};
+
+/// Empty if `config` is usable, otherwise what is wrong (names the field).
+std::string validate(const TrackerConfig& config);
+
+}  // namespace depowder::tracker

@@ -1,0 +1,104 @@
+// One part's tracker state and its per-frame step: Alg. 1 (CU-ICP) and its two
+// baselines, which differ only in the template update policy (update_policy.hpp).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "depowder/geometry.hpp"
+#include "depowder/mesh.hpp"
+#include "depowder/point_grid.hpp"
+#include "depowder/tracker/config.hpp"
+#include "depowder/tracker/registration.hpp"
+#include "depowder/tracker/template.hpp"
+#include "depowder/tracker/update_policy.hpp"
+
+namespace depowder::tracker {
+
+/// Mirrors part_pose_t's status constants.
+enum class TrackStatus {
+  kWaiting,   ///< Phase 1 (eta <= eta1): no ICP, the initial pose is reported
+  kTracking,  ///< ICP ran and the fit is good
+  kDegraded,  ///< ICP ran, the pose was taken, but the fit is poor (see reason)
+  kLost,      ///< this frame did not give a pose (bad input or failed fit): last good pose kept
+};
+const char* toString(TrackStatus status);
+
+/// Wall time of each step of one track() call, milliseconds.
+struct TrackTiming {
+  double crop_ms = 0;      ///< crop + grid build
+  double icp_ms = 0;       ///< Alg. 1, line 8
+  double progress_ms = 0;  ///< line 11 (Eq. 2)
+  double template_ms = 0;  ///< Alg. 2, when it ran
+  double total_ms = 0;
+};
+
+struct TrackResult {
+  TrackStatus status = TrackStatus::kWaiting;
+  std::string reason;                   ///< why, when not kTracking; "" otherwise
+  Pose T_cell_part = Pose::Identity();  ///< always valid (orthonormal, finite)
+  double eta = 0;                       ///< progress used by the update rule (0..1)
+  double fitness = 0;                   ///< m, RMS point-to-plane residual of ICP's matches
+  double inlier_ratio = 0;              ///< matched template points / template points used by ICP
+  int iterations = 0;                   ///< ICP iterations this frame
+  bool template_updated = false;        ///< Alg. 2 ran this frame
+  int template_version = 0;             ///< increments when the template changes
+  std::size_t template_size = 0;        ///< CAD samples in the template
+  std::size_t scan_points = 0;          ///< scan points in the crop around the part
+  UpdateDecision update;                ///< the policy's decision this frame (when ICP ran)
+  TrackTiming timing;
+};
+
+class PartTracker {
+ public:
+  /// Samples `mesh` (part frame, metres) every config.cad_spacing. Throws std::invalid_argument
+  /// naming the part for a mesh with no triangles or no area, a bad xi, an invalid initial
+  /// pose or an invalid config.
+  PartTracker(std::string name, const Mesh& mesh, const Pose& T_cell_part_init, double xi,
+              const TrackerConfig& config = {});
+
+  /// One frame: `scan` is P_i in the cell frame. Never throws for bad data; the result
+  /// says what happened.
+  TrackResult track(const Cloud& scan);
+
+  const std::string& name() const { return name_; }
+  Method method() const { return config_.method; }
+  double xi() const { return xi_; }
+  const TrackerConfig& config() const { return config_; }
+  const Pose& pose() const { return T_cell_part_; }
+  bool started() const { return started_; }           ///< left Phase 1
+  const SurfaceSamples& cad() const { return cad_; }  ///< P_cad, part frame
+  const Indices& templateIndices() const { return template_; }
+  Cloud templatePoints() const { return gather(cad_.points, template_); }  ///< part frame
+  int templateVersion() const { return template_version_; }
+
+ private:
+  double correspondenceDistance() const;
+  double estimateEta(const Pose& T_cell_part, const Cloud& scan, std::string* why) const;
+  void setTemplate(Indices indices);
+  TrackResult refuse(TrackResult r, std::string why) const;
+
+  std::string name_;
+  TrackerConfig config_;
+  double xi_;
+  SurfaceSamples cad_;
+  Cloud cad_coarse_;             ///< P_cad thinned to icp_leaf, for Eq. 2
+  Eigen::AlignedBox3d cad_box_;  ///< part frame
+  Pose T_cell_part_init_;
+
+  // Tracking state (Alg. 1).
+  bool started_ = false;
+  Pose T_cell_part_;             ///< T_i
+  double eta_ = 0;               ///< last estimate
+  UpdateReference last_update_;  ///< R_last, t_last, eta_last
+  Indices template_;             ///< P_tmpl
+  Cloud icp_points_, icp_normals_;
+  Cloud visible_points_, visible_normals_;  ///< the ICP template facing a camera, this frame  ///< P_tmpl thinned to
+                                            ///< icp_leaf, with normals
+  int template_version_ = 0;
+
+  // Per-frame buffers, kept to reuse their memory.
+  Cloud crop_;
+};
+
+}  // namespace depowder::tracker

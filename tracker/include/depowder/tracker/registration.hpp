@@ -1,0 +1,53 @@
+// Point-to-plane ICP of an oriented source (CAD template points with their normals)
+// onto a target scan, with a robust kernel and nearest-neighbour association in a
+// PointGrid built once per frame. This is Alg. 1, line 8: ICP(P_tmpl, P_i).
+#pragma once
+
+#include <string>
+
+#include "depowder/geometry.hpp"
+#include "depowder/point_grid.hpp"
+#include "depowder/tracker/config.hpp"
+
+namespace depowder::tracker {
+
+enum class RegistrationStatus {
+  kConverged,              ///< the last update was below the convergence thresholds
+  kMaxIterations,          ///< stopped at max_iterations (the pose is still the best estimate)
+  kTooFewCorrespondences,  ///< fewer than min_correspondences: the guess is returned unchanged
+  kDegenerate,             ///< the normal equations could not be solved: the guess is returned
+  kInvalidInput,           ///< empty source, size mismatch, non-finite guess or bad config
+};
+const char* toString(RegistrationStatus status);
+
+struct RegistrationResult {
+  RegistrationStatus status = RegistrationStatus::kInvalidInput;
+  std::string reason;                       ///< why, when not converged
+  Pose T_target_source = Pose::Identity();  ///< always a valid rigid transform
+  int iterations = 0;                       ///< association + solve rounds
+  int correspondences = 0;                  ///< source points matched in the last round
+  double inlier_ratio = 0;                  ///< correspondences / source points
+  double rms = 0;                           ///< m, RMS point-to-plane residual of the last round's matches
+  bool ok() const { return status == RegistrationStatus::kConverged || status == RegistrationStatus::kMaxIterations; }
+};
+
+/// Registers `source` (points and unit normals, source frame) onto `target` (the cloud
+/// `grid` was built from). Association: each source point, moved by the current estimate,
+/// takes its nearest target point within `max_distance` (m; the grid's cell should be at
+/// least that). Residual: distance of that target point to the source point's tangent
+/// plane, weighted by a Geman-McClure kernel of scale config.kernel_scale. Gauss-Newton
+/// on SE(3), starting at `guess`, with a motion prior towards the guess worth
+/// config.motion_prior of the matches (0 for a one-off registration). config.max_correspondence_distance
+/// is not read here.
+RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
+                                        const PointGrid& grid, const Pose& guess, double max_distance,
+                                        const IcpConfig& config);
+
+/// Same, building the grid itself (tests, one-off registrations).
+RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
+                                        const Pose& guess, double max_distance, const IcpConfig& config);
+
+/// Nearest rotation to `R` (SVD), so a pose built from it is orthonormal to machine precision.
+Eigen::Matrix3d orthonormalized(const Eigen::Matrix3d& R);
+
+}  // namespace depowder::tracker

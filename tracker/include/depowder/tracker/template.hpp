@@ -1,0 +1,42 @@
+// The template P_tmpl (Alg. 2) and the per-frame scan crop. A template is a list of
+// indices into the part's CAD samples, so it lives in the part frame and keeps the
+// CAD normals that point-to-plane ICP uses.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "depowder/geometry.hpp"
+#include "depowder/point_grid.hpp"
+
+namespace depowder::tracker {
+
+using Indices = std::vector<std::uint32_t>;
+
+/// Alg. 2: the CAD samples (part frame) whose nearest scan point is closer than `xi` (m)
+/// when the CAD model is at `T_cell_part` (lines 3-6). `grid` is built on the scan with a
+/// cell of at least xi.
+Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const PointGrid& scan_grid, double xi);
+
+/// One index per occupied `leaf` voxel (part frame), in the order of `indices` (the first
+/// sample seen in a voxel is kept). leaf <= 0 returns `indices` unchanged.
+Indices thinned(const Cloud& cad_points, const Indices& indices, double leaf);
+
+/// All indices 0..n-1 (Vanilla ICP's template: the whole CAD model, Strategy 1).
+Indices allIndices(std::size_t n);
+
+/// The finite points of `scan` that lie in `box_part` (a part-frame box) grown by `margin`
+/// (m) when the part is at `T_cell_part`. Appends to `out` (cleared first). Returns the
+/// number of non-finite points met.
+std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::AlignedBox3d& box_part, double margin,
+                       Cloud& out);
+
+/// The points (part frame, with outward unit normals) that face at least one of `viewpoints`
+/// (cell frame) when the part is at `T_cell_part`: back-face culling. Clears the outputs first.
+void facing(const Cloud& points, const Cloud& normals, const Pose& T_cell_part, const std::vector<Point>& viewpoints,
+            Cloud& out_points, Cloud& out_normals);
+
+/// Gathers points[indices].
+Cloud gather(const Cloud& points, const Indices& indices);
+
+}  // namespace depowder::tracker

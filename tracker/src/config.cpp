@@ -1,0 +1,60 @@
+#include "depowder/tracker/config.hpp"
+
+#include <cmath>
+
+namespace depowder::tracker {
+
+const char* toString(Method method) {
+  switch (method) {
+    case Method::kCu:
+      return "cu";
+    case Method::kContinuous:
+      return "continuous";
+    case Method::kVanilla:
+      return "vanilla";
+  }
+  return "?";
+}
+
+std::optional<Method> methodFromString(const std::string& name) {
+  for (Method m : {Method::kCu, Method::kContinuous, Method::kVanilla})
+    if (name == toString(m)) return m;
+  return std::nullopt;
+}
+
+namespace {
+bool positive(double v) { return std::isfinite(v) && v > 0; }
+bool nonNegative(double v) { return std::isfinite(v) && v >= 0; }
+bool fraction(double v) { return std::isfinite(v) && v >= 0 && v <= 1; }
+}  // namespace
+
+std::string validate(const TrackerConfig& c) {
+  if (!positive(c.delta1_deg) || c.delta1_deg > 180) return "delta1_deg must be in (0, 180] deg";
+  if (!positive(c.delta2)) return "delta2 must be > 0 m";
+  if (!positive(c.delta3) || c.delta3 > 1) return "delta3 must be in (0, 1]";
+  if (!fraction(c.eta1)) return "eta1 must be in [0, 1]";
+  if (!positive(c.cad_spacing) || c.cad_spacing > 0.05) return "cad_spacing must be in (0, 0.05] m";
+  if (!nonNegative(c.icp_leaf) || c.icp_leaf > 0.05) return "icp_leaf must be in [0, 0.05] m";
+  if (!nonNegative(c.crop_margin) || c.crop_margin > 1) return "crop_margin must be in [0, 1] m";
+  if (c.min_scan_points < 1) return "min_scan_points must be >= 1";
+  if (c.icp.max_iterations < 1) return "icp.max_iterations must be >= 1";
+  if (!nonNegative(c.icp.max_correspondence_distance) || c.icp.max_correspondence_distance > 0.5)
+    return "icp.max_correspondence_distance must be in [0, 0.5] m (0 = the part's xi)";
+  if (!nonNegative(c.icp.convergence_translation)) return "icp.convergence_translation must be >= 0 m";
+  if (!nonNegative(c.icp.convergence_rotation)) return "icp.convergence_rotation must be >= 0 rad";
+  if (!nonNegative(c.icp.kernel_scale)) return "icp.kernel_scale must be >= 0 m";
+  if (!nonNegative(c.icp.point_to_point_weight)) return "icp.point_to_point_weight must be >= 0";
+  if (!nonNegative(c.icp.motion_prior)) return "icp.motion_prior must be >= 0";
+  if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
+  if (c.icp.min_correspondences < 6) return "icp.min_correspondences must be >= 6";
+  if (!fraction(c.status.tracking_min_inlier_ratio)) return "status.tracking_min_inlier_ratio must be in [0, 1]";
+  if (!fraction(c.status.lost_min_inlier_ratio)) return "status.lost_min_inlier_ratio must be in [0, 1]";
+  if (c.status.lost_min_inlier_ratio > c.status.tracking_min_inlier_ratio)
+    return "status.lost_min_inlier_ratio must not exceed status.tracking_min_inlier_ratio";
+  if (!positive(c.status.tracking_max_rms)) return "status.tracking_max_rms must be > 0 m";
+  if (!positive(c.status.lost_max_rms) || c.status.lost_max_rms < c.status.tracking_max_rms)
+    return "status.lost_max_rms must be >= status.tracking_max_rms";
+  return "";
+}
+
+}  // namespace depowder::tracker

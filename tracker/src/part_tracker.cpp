@@ -1,0 +1,209 @@
+#include "depowder/tracker/part_tracker.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "format.hpp"
+
+namespace depowder::tracker {
+
+using detail::fixed;
+
+const char* toString(TrackStatus status) {
+  switch (status) {
+    case TrackStatus::kWaiting:
+      return "waiting";
+    case TrackStatus::kTracking:
+      return "tracking";
+    case TrackStatus::kDegraded:
+      return "degraded";
+    case TrackStatus::kLost:
+      return "lost";
+  }
+  return "?";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+PartTracker::PartTracker(std::string name, const Mesh& mesh, const Pose& T_cell_part_init, double xi,
+                         const TrackerConfig& config)
+    : name_(std::move(name)), config_(config), xi_(xi), T_cell_part_init_(T_cell_part_init) {
+  const std::string part = "part '" + name_ + "': ";
+  if (const std::string why = validate(config_); !why.empty())
+    throw std::invalid_argument(part + "tracker config: " + why);
+  if (!(std::isfinite(xi_) && xi_ > 0)) throw std::invalid_argument(part + "xi must be > 0 m");
+  if (!isValidPose(T_cell_part_init_, 1e-6))
+    throw std::invalid_argument(part + "initial pose is not a rigid transform");
+  if (mesh.triangles.empty()) throw std::invalid_argument(part + "mesh has no triangles");
+  try {
+    cad_ = sampleSurface(mesh, config_.cad_spacing);
+  } catch (const MeshError& e) {
+    throw std::invalid_argument(part + "cannot sample the mesh: " + e.what());
+  }
+  cad_box_ = bounds(cad_.points);
+  cad_coarse_ = gather(cad_.points, thinned(cad_.points, allIndices(cad_.points.size()), config_.icp_leaf));
+  T_cell_part_ = T_cell_part_init_;
+  last_update_ = {T_cell_part_init_, 0.0};
+}
+
+double PartTracker::correspondenceDistance() const {
+  return config_.icp.max_correspondence_distance > 0 ? config_.icp.max_correspondence_distance : xi_;
+}
+
+double PartTracker::estimateEta(const Pose& T_cell_part, const Cloud& scan, std::string* why) const {
+  // Alg. 1, line 11: eta_i from P_cad . T_i and P_i, with the Eq. 2 code the progress process runs.
+  // P_cad thinned to icp_leaf: the same eta to about 1 % at a third of the cost.
+  const progress::ProgressEstimate e =
+      progress::estimateProgress(transformed(cad_coarse_, T_cell_part), scan, xi_, config_.progress);
+  if (e.status != progress::Status::kOk) {
+    if (why) *why = std::string("progress unavailable (") + progress::toString(e.status) + ": " + e.reason + ")";
+    return std::nan("");
+  }
+  return e.eta;
+}
+
+void PartTracker::setTemplate(Indices indices) {
+  template_ = std::move(indices);
+  const Indices icp = thinned(cad_.points, template_, config_.icp_leaf);
+  icp_points_ = gather(cad_.points, icp);
+  icp_normals_ = gather(cad_.normals, icp);
+  ++template_version_;
+}
+
+TrackResult PartTracker::refuse(TrackResult r, std::string why) const {
+  r.status = started_ ? TrackStatus::kLost : TrackStatus::kWaiting;
+  r.reason = std::move(why) + (started_ ? "; last good pose kept" : "; initial pose kept");
+  r.T_cell_part = T_cell_part_;
+  return r;
+}
+
+TrackResult PartTracker::track(const Cloud& scan) {
+  const Clock::time_point t_start = Clock::now();
+  TrackResult r;
+  r.T_cell_part = T_cell_part_;
+  r.eta = eta_;
+  auto finish = [&](TrackResult out) {
+    out.template_version = template_version_;
+    out.template_size = template_.size();
+    out.timing.total_ms = msSince(t_start);
+    return out;
+  };
+
+  // Alg. 1, line 2: P_i, cropped to the part's neighbourhood at the predicted pose T_{i-1}
+  // (the authors crop +-12 cm); a grid on the crop serves both ICP and Alg. 2.
+  if (scan.empty()) return finish(refuse(r, "empty scan"));
+  Clock::time_point t0 = Clock::now();
+  const std::size_t non_finite = cropToPart(scan, T_cell_part_, cad_box_, config_.crop_margin, crop_);
+  if (non_finite > 0)
+    return finish(refuse(r, std::to_string(non_finite) + " of " + std::to_string(scan.size()) +
+                                " scan points are NaN or infinite: frame refused"));
+  r.scan_points = crop_.size();
+  if (crop_.size() < static_cast<std::size_t>(config_.min_scan_points))
+    return finish(refuse(r, "only " + std::to_string(crop_.size()) + " scan points within " +
+                                fixed(config_.crop_margin * 100, 1) + " cm of the part (need " +
+                                std::to_string(config_.min_scan_points) + ")"));
+  const double max_distance = correspondenceDistance();
+  const PointGrid grid(crop_, std::max(max_distance, xi_));
+  r.timing.crop_ms = msSince(t0);
+
+  // Phase 1 (Sec. III-B): while eta <= eta1 no tracking; the initial pose is reported.
+  if (!started_) {
+    t0 = Clock::now();
+    std::string why;
+    const double eta = estimateEta(T_cell_part_init_, crop_, &why);
+    r.timing.progress_ms = msSince(t0);
+    if (std::isnan(eta) || eta <= config_.eta1) {
+      r.status = TrackStatus::kWaiting;
+      if (!std::isnan(eta)) eta_ = r.eta = eta;
+      r.reason = std::isnan(eta) ? "phase 1: " + why
+                                 : "phase 1: eta " + fixed(eta) + " <= eta1 " + fixed(config_.eta1) + ", no ICP";
+      return finish(r);
+    }
+    // Alg. 1, lines 3-6: first iteration. T_i = T_init, P_cad at T_init, template by Alg. 2.
+    started_ = true;
+    eta_ = r.eta = eta;
+    t0 = Clock::now();
+    setTemplate(config_.method == Method::kVanilla ? allIndices(cad_.points.size())
+                                                   : deriveTemplate(cad_.points, T_cell_part_, grid, xi_));
+    r.timing.template_ms += msSince(t0);
+    last_update_ = {T_cell_part_, eta_};
+    r.template_updated = true;
+  }
+  // A template too small to register (the part was out of view when it was derived) is
+  // re-derived before ICP, in every method: otherwise Eq. 1 could never fire again.
+  if (icp_points_.size() < static_cast<std::size_t>(config_.icp.min_correspondences) &&
+      config_.method != Method::kVanilla) {
+    t0 = Clock::now();
+    setTemplate(deriveTemplate(cad_.points, T_cell_part_, grid, xi_));
+    r.timing.template_ms += msSince(t0);
+    last_update_ = {T_cell_part_, eta_};
+    r.template_updated = true;
+  }
+
+  // Alg. 1, lines 8-9: ICP(P_tmpl, P_i) with T_{i-1} as the prior. Registering the part-frame
+  // template from T_{i-1} gives T_i = T_{i,i-1} x T_{i-1} directly.
+  t0 = Clock::now();
+  const Cloud* src = &icp_points_;
+  const Cloud* src_n = &icp_normals_;
+  if (!config_.viewpoints.empty()) {
+    // Template points whose outward normal faces away from every camera cannot be in the scan
+    // (the underside of a blade); they would only match powder or the far wall.
+    facing(icp_points_, icp_normals_, T_cell_part_, config_.viewpoints, visible_points_, visible_normals_);
+    src = &visible_points_;
+    src_n = &visible_normals_;
+  }
+  const RegistrationResult reg =
+      registerPointToPlane(*src, *src_n, crop_, grid, T_cell_part_, max_distance, config_.icp);
+  r.timing.icp_ms = msSince(t0);
+  r.iterations = reg.iterations;
+  r.fitness = reg.rms;
+  r.inlier_ratio = reg.inlier_ratio;
+
+  // Is the fit believable? The same rule for every method.
+  const StatusConfig& s = config_.status;
+  if (!reg.ok()) return finish(refuse(r, std::string("ICP failed: ") + reg.reason));
+  if (!isValidPose(reg.T_target_source, 1e-6)) return finish(refuse(r, "ICP returned an invalid pose"));
+  if (reg.inlier_ratio < s.lost_min_inlier_ratio)
+    return finish(
+        refuse(r, "fit refused: inlier ratio " + fixed(reg.inlier_ratio) + " < " + fixed(s.lost_min_inlier_ratio)));
+  if (reg.rms > s.lost_max_rms)
+    return finish(refuse(
+        r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
+  T_cell_part_ = reg.T_target_source;
+  r.T_cell_part = T_cell_part_;
+  r.status = TrackStatus::kTracking;
+  if (reg.inlier_ratio < s.tracking_min_inlier_ratio) {
+    r.status = TrackStatus::kDegraded;
+    r.reason = "inlier ratio " + fixed(reg.inlier_ratio) + " < " + fixed(s.tracking_min_inlier_ratio);
+  } else if (reg.rms > s.tracking_max_rms) {
+    r.status = TrackStatus::kDegraded;
+    r.reason = "residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.tracking_max_rms * 1000, 1) + " mm";
+  }
+
+  // Lines 10-11: P_cad moves with the pose; eta_i from Eq. 2 (kept from before if unavailable).
+  t0 = Clock::now();
+  std::string why;
+  if (const double eta = estimateEta(T_cell_part_, crop_, &why); !std::isnan(eta)) eta_ = eta;
+  r.eta = eta_;
+  r.timing.progress_ms += msSince(t0);
+
+  // Lines 12-16: the update policy, the one place the three methods differ.
+  r.update = decideTemplateUpdate(config_.method, T_cell_part_, eta_, last_update_, thresholdsOf(config_));
+  if (r.update.update) {
+    t0 = Clock::now();
+    setTemplate(deriveTemplate(cad_.points, T_cell_part_, grid, xi_));  // line 13, Alg. 2
+    r.timing.template_ms += msSince(t0);
+    last_update_ = {T_cell_part_, eta_};  // lines 14-16
+    r.template_updated = true;
+  }
+  return finish(r);
+}
+
+}  // namespace depowder::tracker

@@ -1,0 +1,215 @@
+#include "depowder/tracker/registration.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+
+#include "format.hpp"
+
+namespace depowder::tracker {
+
+const char* toString(RegistrationStatus status) {
+  switch (status) {
+    case RegistrationStatus::kConverged:
+      return "converged";
+    case RegistrationStatus::kMaxIterations:
+      return "max_iterations";
+    case RegistrationStatus::kTooFewCorrespondences:
+      return "too_few_correspondences";
+    case RegistrationStatus::kDegenerate:
+      return "degenerate";
+    case RegistrationStatus::kInvalidInput:
+      return "invalid_input";
+  }
+  return "?";
+}
+
+Eigen::Matrix3d orthonormalized(const Eigen::Matrix3d& R) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
+  return svd.matrixU() * D * svd.matrixV().transpose();
+}
+
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+// The normal equations of one association round (KISS-ICP's BuildLinearSystem).
+struct LinearSystem {
+  Matrix6d H = Matrix6d::Zero();
+  Vector6d g = Vector6d::Zero();
+  int matches = 0;
+  double sum_w = 0;   ///< robust weights: the matches' worth
+  double sum_r2 = 0;  ///< unweighted, for the RMS
+};
+
+// Geman-McClure weight of a residual r (m) with scale s2 = scale^2; 1 without a kernel.
+double robustWeight(double r, double s2) {
+  if (s2 <= 0) return 1.0;
+  const double k = s2 / (s2 + r * r);
+  return k * k;
+}
+
+// Data association + linearisation at T_target_source. The residual of a match (p, n) <-> q is
+// the distance of q, taken into the source frame, to the tangent plane of p:
+//   r = n . (T^-1 q - p).
+// The update perturbs the inverse pose, T^-1 <- exp(delta) T^-1 with delta = (omega, v), so
+//   dr/domega = (T^-1 q) x n,  dr/dv = n;
+// the CAD normals stay fixed in the part frame and Gauss-Newton is exact for this cost.
+LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const Cloud& target, const PointGrid& grid,
+                               const Pose& T, double max_distance, double s2, double point_weight) {
+  LinearSystem sys;
+  const Pose T_inv = T.inverse(Eigen::Isometry);
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d t = T.translation();
+  const Eigen::Matrix3d Ri = T_inv.linear();
+  const Eigen::Vector3d ti = T_inv.translation();
+  Vector6d J;
+  for (std::size_t i = 0; i < source.size(); ++i) {
+    const Eigen::Vector3d p_target = R * source[i] + t;
+    const PointGrid::Hit hit = grid.nearest(p_target, max_distance);
+    if (!hit.found()) continue;
+    const Eigen::Vector3d q = Ri * target[hit.index] + ti;  // scan point in the source frame
+    const Eigen::Vector3d& n = normals[i];
+    const double r = n.dot(q - source[i]);
+    J.head<3>() = q.cross(n);
+    J.tail<3>() = n;
+    const double w = robustWeight(r, s2);
+    sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
+    sys.g.noalias() += (w * r) * J;
+    if (point_weight > 0) {
+      // A light point-to-point term, e = T^-1 q - p with de/d(omega, v) = [-[q]x, I]: it holds the
+      // directions a plane cannot see (sliding along a face, spinning a flat part on the powder).
+      const Eigen::Vector3d e = q - source[i];
+      Eigen::Matrix<double, 3, 6> Jp;
+      Jp.leftCols<3>() << 0, q.z(), -q.y(), -q.z(), 0, q.x(), q.y(), -q.x(), 0;
+      Jp.rightCols<3>().setIdentity();
+      const double wp = w * point_weight;
+      sys.H.noalias() += wp * Jp.transpose() * Jp;
+      sys.g.noalias() += wp * Jp.transpose() * e;
+    }
+    sys.sum_r2 += r * r;
+    sys.sum_w += w;
+    ++sys.matches;
+  }
+  sys.H.triangularView<Eigen::StrictlyLower>() = sys.H.transpose();
+  return sys;
+}
+
+// exp(delta) to first order in the translation (the increments are small): rotation by
+// angle-axis omega, then translation v.
+Pose increment(const Vector6d& delta) {
+  Pose inc = Pose::Identity();
+  const Eigen::Vector3d omega = delta.head<3>();
+  const double angle = omega.norm();
+  if (angle > 0) inc.linear() = Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix();
+  inc.translation() = delta.tail<3>();
+  return inc;
+}
+
+}  // namespace
+
+RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
+                                        const PointGrid& grid, const Pose& guess, double max_distance,
+                                        const IcpConfig& config) {
+  RegistrationResult result;
+  const bool guess_ok = guess.matrix().allFinite() && isValidPose(guess, 1e-4);
+  if (guess_ok) {
+    result.T_target_source = guess;
+    result.T_target_source.linear() = orthonormalized(guess.linear());
+  }
+  auto invalid = [&](std::string why) {
+    result.status = RegistrationStatus::kInvalidInput;
+    result.reason = std::move(why);
+    return result;
+  };
+  if (!guess_ok) return invalid("initial guess is not a finite rigid transform");
+  if (source.empty()) return invalid("source (template) is empty");
+  if (source_normals.size() != source.size())
+    return invalid("source has " + std::to_string(source.size()) + " points but " +
+                   std::to_string(source_normals.size()) + " normals");
+  if (target.empty() || grid.size() != target.size()) return invalid("target (scan) is empty or not the grid's cloud");
+  if (!(std::isfinite(max_distance) && max_distance > 0)) return invalid("max correspondence distance must be > 0");
+  if (config.max_iterations < 1) return invalid("max_iterations must be >= 1");
+
+  const double s2 = config.kernel_scale * config.kernel_scale;
+  // Characteristic length of the source: rotations about its frame's origin move points by about this.
+  double length2 = 0;
+  for (const Point& p : source) length2 += p.squaredNorm();
+  const double length = std::max(std::sqrt(length2 / source.size()), 1e-3);
+  Vector6d W;
+  W << Eigen::Vector3d::Constant(length * length), Eigen::Vector3d::Ones();
+  const Pose guess_o = result.T_target_source;  // the guess, orthonormalised
+  Pose T = result.T_target_source;
+  result.status = RegistrationStatus::kMaxIterations;
+  for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
+    // Associate and linearise at the current estimate.
+    const LinearSystem sys =
+        buildLinearSystem(source, source_normals, target, grid, T, max_distance, s2, config.point_to_point_weight);
+    result.iterations = iteration;
+    result.correspondences = sys.matches;
+    result.inlier_ratio = static_cast<double>(sys.matches) / static_cast<double>(source.size());
+    result.rms = sys.matches > 0 ? std::sqrt(sys.sum_r2 / sys.matches) : 0.0;
+    if (sys.matches < std::max(config.min_correspondences, 6)) {
+      result.status = RegistrationStatus::kTooFewCorrespondences;
+      result.reason = "only " + std::to_string(sys.matches) + " template points have a scan point within " +
+                      detail::fixed(max_distance * 1000, 1) + " mm (need " +
+                      std::to_string(config.min_correspondences) + ")";
+      result.T_target_source = guess;
+      result.T_target_source.linear() = orthonormalized(guess.linear());
+      return result;
+    }
+    // Solve in the directions the matches constrain; then a trust region: no step may move
+    // the template further than the association can follow.
+    // Motion prior: mu |e + delta|_W^2, e the deviation of the estimate from the guess so far,
+    // W weighting rotations by length^2 so both parts are displacements, mu worth a fraction of
+    // the matches. It holds what the matches cannot see (a tube's spin, a plane's slide) at the
+    // guess instead of letting noise turn it, and barely moves a well-constrained solution.
+    Matrix6d H = sys.H;
+    Vector6d g = sys.g;
+    if (config.motion_prior > 0) {
+      const double mu = config.motion_prior * sys.sum_w;
+      const Pose E = T.inverse(Eigen::Isometry) * guess_o;  // T^-1 guess: identity at the start
+      const Eigen::AngleAxisd aa(E.linear());
+      Vector6d e;
+      e << aa.angle() * aa.axis(), E.translation();
+      H.diagonal() += mu * W;
+      g += mu * W.cwiseProduct(e);
+    }
+    H.diagonal().array() += 1e-12 * std::max(H.diagonal().maxCoeff(), 1e-300);  // numerical floor
+    Vector6d delta = -H.ldlt().solve(g);
+    const double scale = std::max(
+        {1.0, delta.tail<3>().norm() / (0.5 * max_distance), delta.head<3>().norm() / config.max_step_rotation});
+    delta /= scale;
+    if (!delta.allFinite()) {
+      result.status = RegistrationStatus::kDegenerate;
+      result.reason = "the ICP normal equations are singular";
+      result.T_target_source = guess;
+      result.T_target_source.linear() = orthonormalized(guess.linear());
+      return result;
+    }
+    // T^-1 <- exp(delta) T^-1, i.e. T <- T exp(delta)^-1.
+    T = T * increment(delta).inverse(Eigen::Isometry);
+    if (delta.tail<3>().norm() < config.convergence_translation &&
+        delta.head<3>().norm() < config.convergence_rotation) {
+      result.status = RegistrationStatus::kConverged;
+      break;
+    }
+  }
+  T.linear() = orthonormalized(T.linear());
+  result.T_target_source = T;
+  if (result.status == RegistrationStatus::kMaxIterations)
+    result.reason = "stopped after " + std::to_string(config.max_iterations) + " iterations without converging";
+  return result;
+}
+
+RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
+                                        const Pose& guess, double max_distance, const IcpConfig& config) {
+  const PointGrid grid(target, std::isfinite(max_distance) && max_distance > 0 ? max_distance : 1.0);
+  return registerPointToPlane(source, source_normals, target, grid, guess, max_distance, config);
+}
+
+}  // namespace depowder::tracker

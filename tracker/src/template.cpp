@@ -1,0 +1,83 @@
+#include "depowder/tracker/template.hpp"
+
+#include <cmath>
+#include <numeric>
+#include <unordered_set>
+
+namespace depowder::tracker {
+
+Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const PointGrid& scan_grid, double xi) {
+  Indices out;
+  const double xi2 = xi * xi;
+  for (std::size_t i = 0; i < cad_points.size(); ++i) {
+    // Alg. 2, lines 3-4: nearest scan point and its distance to the CAD point at the current pose.
+    const PointGrid::Hit hit = scan_grid.nearest(T_cell_part * cad_points[i], xi);
+    // Lines 5-6: d < xi adds the CAD point to the template.
+    if (hit.found() && hit.distance2 < xi2) out.push_back(static_cast<std::uint32_t>(i));
+  }
+  return out;
+}
+
+Indices thinned(const Cloud& cad_points, const Indices& indices, double leaf) {
+  if (!(leaf > 0)) return indices;
+  std::unordered_set<std::uint64_t> seen;
+  seen.reserve(indices.size());
+  Indices out;
+  for (const std::uint32_t i : indices) {
+    const Eigen::Array3i c = (cad_points[i] / leaf).array().floor().cast<int>();
+    const std::uint64_t key = (static_cast<std::uint64_t>(c.x() & 0x1FFFFF) << 42) |
+                              (static_cast<std::uint64_t>(c.y() & 0x1FFFFF) << 21) |
+                              static_cast<std::uint64_t>(c.z() & 0x1FFFFF);
+    if (seen.insert(key).second) out.push_back(i);
+  }
+  return out;
+}
+
+Indices allIndices(std::size_t n) {
+  Indices out(n);
+  std::iota(out.begin(), out.end(), 0u);
+  return out;
+}
+
+std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::AlignedBox3d& box_part, double margin,
+                       Cloud& out) {
+  out.clear();
+  const Pose T_part_cell = T_cell_part.inverse(Eigen::Isometry);
+  const Eigen::Array3d lo = box_part.min().array() - margin;
+  const Eigen::Array3d hi = box_part.max().array() + margin;
+  std::size_t non_finite = 0;
+  for (const Point& p : scan) {
+    if (!p.allFinite()) {
+      ++non_finite;
+      continue;
+    }
+    const Eigen::Array3d q = (T_part_cell * p).array();
+    if ((q >= lo).all() && (q <= hi).all()) out.push_back(p);
+  }
+  return non_finite;
+}
+
+void facing(const Cloud& points, const Cloud& normals, const Pose& T_cell_part, const std::vector<Point>& viewpoints,
+            Cloud& out_points, Cloud& out_normals) {
+  out_points.clear();
+  out_normals.clear();
+  const Pose T_part_cell = T_cell_part.inverse(Eigen::Isometry);
+  std::vector<Point> eyes;  // viewpoints in the part frame
+  for (const Point& c : viewpoints) eyes.push_back(T_part_cell * c);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    for (const Point& eye : eyes)
+      if (normals[i].dot(eye - points[i]) > 0) {
+        out_points.push_back(points[i]);
+        out_normals.push_back(normals[i]);
+        break;
+      }
+}
+
+Cloud gather(const Cloud& points, const Indices& indices) {
+  Cloud out;
+  out.reserve(indices.size());
+  for (const std::uint32_t i : indices) out.push_back(points[i]);
+  return out;
+}
+
+}  // namespace depowder::tracker
