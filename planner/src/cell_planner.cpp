@@ -165,8 +165,29 @@ std::optional<Plan> CellPlanner::emit(Plan plan) {
   plan.plan_id = next_plan_id_++;
   active_id_ = plan.plan_id;
   active_size_ = plan.waypoints.size();
+  active_waypoints_ = plan.waypoints;
+  active_utime_ = plan.utime;
+  active_reason_ = plan.reason.rfind("refresh: ", 0) == 0 ? plan.reason : "refresh: " + plan.reason;
+  active_part_name_ = plan.part;
+  active_plan_phase_ = plan.phase;
+  active_status_ = plan.status;
   if (plan.status != PlanStatus::kHold) last_hold_.clear();
   return plan;
+}
+
+std::optional<Plan> CellPlanner::refresh(std::int64_t utime) {
+  if (active_waypoints_.empty() || !robot_ || robot_->plan_id != active_id_) return std::nullopt;
+  if (static_cast<double>(utime - active_utime_) * 1e-6 < config_.replan.refresh_s) return std::nullopt;
+  const std::size_t from = static_cast<std::size_t>(std::max(0, robot_->waypoint_index));
+  if (from >= active_waypoints_.size()) return std::nullopt;
+  Plan plan;
+  plan.status = active_status_;
+  plan.reason = active_reason_;
+  plan.part = active_part_name_;
+  plan.phase = active_plan_phase_;
+  plan.utime = utime;
+  plan.waypoints.assign(active_waypoints_.begin() + static_cast<std::ptrdiff_t>(from), active_waypoints_.end());
+  return emit(std::move(plan));
 }
 
 std::optional<Plan> CellPlanner::hold(const std::string& reason, std::int64_t utime) {
@@ -182,7 +203,7 @@ std::optional<Plan> CellPlanner::hold(const std::string& reason, std::int64_t ut
 
 std::optional<Plan> CellPlanner::home(const std::string& why, std::int64_t utime) {
   active_is_cycle_ = false;
-  if (home_reason_ == why) return std::nullopt;
+  if (home_reason_ == why) return refresh(utime);
   home_reason_ = why;
   const robot::Joints q = robot_ ? robot_->q : arm_->q_home;
   Plan plan = planHome(*world_, q, config_, why);
@@ -258,7 +279,7 @@ std::optional<Plan> CellPlanner::step() {
     const bool same = continuing && phase == active_phase_;
     const bool moved = translationDistance(T, active_pose_) > config_.replan.translation ||
                        rotationAngle(T.linear(), active_pose_.linear()) > config_.replan.rotation_deg * kPi / 180;
-    if (same && !moved) return std::nullopt;
+    if (same && !moved) return refresh(utime);
 
     // 5. Build the cycle. A pose-triggered regeneration keeps the loop's layer.
     CycleRequest request;

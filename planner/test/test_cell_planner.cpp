@@ -183,6 +183,34 @@ TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFrom) {
   EXPECT_TRUE(c.clean()) << c.first;
 }
 
+TEST_F(CellTest, RunningPlanIsRefreshedWithNewerFrames) {
+  // The driver stops a plan older than robot.plan_max_age: a plan nothing changed is re-sent
+  // from the waypoint the arm is heading to, stamped with the newest frame.
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints());
+  robotAt(*p1, 12);
+  utime += 300000;  // 0.3 s: not yet
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  EXPECT_FALSE(planner->step());
+  utime += 300000;  // 0.6 s after the plan
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2);
+  EXPECT_EQ(p2->utime, utime);
+  EXPECT_EQ(p2->part, "left");
+  EXPECT_NE(p2->reason.find("refresh: "), std::string::npos) << p2->reason;
+  ASSERT_EQ(p2->waypoints.size(), p1->waypoints.size() - 12);
+  for (std::size_t i = 0; i < p2->waypoints.size(); ++i)
+    EXPECT_TRUE(p2->waypoints[i].T_cell_nozzle.isApprox(p1->waypoints[i + 12].T_cell_nozzle));
+  // The refreshed plan's end still ends the cycle.
+  robotAt(*p2, static_cast<int>(p2->waypoints.size()));
+  auto p3 = planner->step();
+  ASSERT_TRUE(p3 && p3->hasWaypoints());
+  EXPECT_EQ(p3->reason.find("refresh"), std::string::npos) << "a new cycle, not a refresh";
+  EXPECT_EQ(planner->parts()[0].cycles, 2);
+}
+
 TEST_F(CellTest, PhaseOneUsesTheInitialPose) {
   // The tracker's pose is off by 3 cm, but in phase 1 the printed pose counts.
   frame("left", makePoseRpy({-0.05, 0.0, 0.03}, 0, 0, 0.1), Phase::kVacuumBuried, 0.08);

@@ -88,7 +88,9 @@ class CellPlanner {
   InputResult onRobot(const RobotInput& in);
 
   /// Decides. Returns a plan to publish, or nothing when the current plan stands. A hold
-  /// (no waypoints) is returned once per distinct reason, not on every call.
+  /// (no waypoints) is returned once per distinct reason, not on every call. A running plan
+  /// that nothing changed is re-sent every replan.refresh_s with newer frames: its remaining
+  /// waypoints (from the driver's waypoint_index on), a new plan_id, reason "refresh: ...".
   std::optional<Plan> step();
 
   const std::vector<PartReport>& parts() const { return reports_; }
@@ -101,6 +103,7 @@ class CellPlanner {
   std::optional<Plan> hold(const std::string& reason, std::int64_t utime);
   std::optional<Plan> home(const std::string& why, std::int64_t utime);
   std::optional<Plan> emit(Plan plan);
+  std::optional<Plan> refresh(std::int64_t utime);
   bool eligible(int i) const;
   bool cycleFinished() const;
   void updateWorld();
@@ -116,6 +119,12 @@ class CellPlanner {
   // The plan being executed.
   std::int64_t active_id_ = 0;
   std::size_t active_size_ = 0;
+  std::vector<Waypoint> active_waypoints_;
+  std::int64_t active_utime_ = 0;
+  std::string active_reason_;
+  std::string active_part_name_;
+  Phase active_plan_phase_ = Phase::kNone;
+  PlanStatus active_status_ = PlanStatus::kHold;
   int active_part_ = -1;
   Phase active_phase_ = Phase::kNone;
   Pose active_pose_ = Pose::Identity();

@@ -67,6 +67,9 @@ struct ReplanConfig {
   double translation = 0.005;  ///< m the pose must move to regenerate the path
   double rotation_deg = 3.0;   ///< deg the pose must turn to regenerate the path
   double stale_s = 1.0;        ///< s a pose may lag behind the newest frame before holding
+  /// s; a running plan is re-sent (its remaining waypoints, stamped with the newest frame) when
+  /// it is older than this, because the driver stops a plan older than robot.plan_max_age (1.5 s).
+  double refresh_s = 0.5;
 };
 
 struct PlannerConfig {
