@@ -104,7 +104,9 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
 InputResult CellPlanner::onProgress(const ProgressInput& in) {
   const int i = findPart(states_, in.part);
   if (i < 0) return {InputStatus::kUnknownPart, "PROGRESS for unknown part '" + in.part + "'"};
-  if (!std::isfinite(in.eta) || !std::isfinite(in.h_pow) || !std::isfinite(in.h_max) || !std::isfinite(in.h_min))
+  // Heights are only meaningful with a contour (the estimator sends NaN without one).
+  if (!std::isfinite(in.eta) || (in.status == ProgressStatus::kOk &&
+                                 (!std::isfinite(in.h_pow) || !std::isfinite(in.h_max) || !std::isfinite(in.h_min))))
     return {InputStatus::kInvalidValue, "PROGRESS of " + in.part + " has a non-finite eta or height"};
   const int phase = static_cast<int>(in.phase);
   if (phase < 1 || phase > 4)

@@ -39,7 +39,7 @@ struct ProgressInput {
   ProgressStatus status = ProgressStatus::kOk;
   std::string status_reason;
   double eta = 0;    ///< 0..1
-  double h_pow = 0;  ///< m
+  double h_pow = 0;  ///< m (used, and required finite, only with status kOk)
   double h_max = 0;  ///< m
   double h_min = 0;  ///< m
   Cloud contour;     ///< cell frame

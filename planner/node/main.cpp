@@ -1,0 +1,112 @@
+// depowder-planner: PART_POSE + PROGRESS + ROBOT_STATE -> NOZZLE_PLAN (paper Sec. III-B: contour
+// paths through the three phases, FCL-checked, OMPL transitions, one part per cycle), with a
+// heartbeat. The logic is in planner_node.hpp and the library; this file is the bus.
+#include <iostream>
+
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/cell.hpp"
+#include "depowder/node/heartbeat.hpp"
+#include "depowder/node/shutdown.hpp"
+#include "planner_node.hpp"
+
+using namespace depowder;
+
+namespace {
+
+int usage(const std::string& error = "") {
+  if (!error.empty()) std::cerr << "depowder-planner: " << error << "\n";
+  std::cerr << "usage: depowder-planner [--cell FILE] [--url URL] [--prefix P]\n"
+               "  Subscribes PART_POSE, PROGRESS and ROBOT_STATE; publishes NOZZLE_PLAN (nozzle_plan_t, stamped\n"
+               "  with the utime of the frame that caused it) and HEARTBEAT.\n"
+               "  --cell FILE   cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); sections `planner`, `robot`\n"
+               "  --url URL     LCM URL (overrides lcm.url)\n"
+               "  --prefix P    channel prefix (overrides lcm.prefix)\n";
+  return error.empty() ? 0 : 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string cell_path = node::defaultCellPath(), url, prefix;
+  bool have_url = false, have_prefix = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") return usage();
+    if (a != "--cell" && a != "--url" && a != "--prefix") return usage("unknown option " + a);
+    if (i + 1 >= argc) return usage("missing value after " + a);
+    const std::string v = argv[++i];
+    if (a == "--cell") cell_path = v;
+    if (a == "--url") url = v, have_url = true;
+    if (a == "--prefix") prefix = v, have_prefix = true;
+  }
+
+  try {
+    // 1. Configuration, part meshes and their BVHs.
+    const node::CellConfig cell = node::loadCell(cell_path);
+    const planner::PlannerNodeOptions options = planner::readPlannerOptions(cell);
+    planner::PlannerNode logic(cell, options);
+
+    // 2. Bus, heartbeat, subscriptions. Handlers only hand inputs over; the loop plans.
+    node::installShutdownHandlers();
+    node::Bus bus(have_url ? url : cell.lcm.url, have_prefix ? prefix : cell.lcm.prefix);
+    node::Heartbeat heartbeat(bus, "depowder-planner", options.heartbeat_period);
+    std::string last_rejection;  // printed once per distinct reason, counted always
+    auto rejected = [&](const planner::InputResult& r) {
+      if (r.ok()) return;
+      heartbeat.addDropped();
+      if (r.reason != last_rejection) std::cerr << "depowder-planner: rejected: " << r.reason << std::endl;
+      last_rejection = r.reason;
+    };
+    bus.subscribe<part_pose_t>("PART_POSE",
+                               [&](const part_pose_t& m, const std::string&) { rejected(logic.onPose(m)); });
+    bus.subscribe<progress_t>("PROGRESS",
+                              [&](const progress_t& m, const std::string&) { rejected(logic.onProgress(m)); });
+    bus.subscribe<robot_state_t>("ROBOT_STATE",
+                                 [&](const robot_state_t& m, const std::string&) { rejected(logic.onRobot(m)); });
+    heartbeat.setState(heartbeat_t::RUNNING);
+    heartbeat.publish();
+    std::cout << "depowder-planner: " << cell.parts.size() << " parts, cell " << cell.file << std::endl;
+
+    // 3. Main loop: take the messages, decide, publish a plan when there is a new one.
+    while (!node::shutdownRequested()) {
+      try {
+        bus.spinOnce(10);
+      } catch (const node::BusError&) {
+        if (node::shutdownRequested()) break;  // the signal interrupted LCM's wait: not an error
+        throw;
+      }
+      if (std::optional<nozzle_plan_t> plan = logic.step()) {
+        bus.publish("NOZZLE_PLAN", *plan);
+        if (plan->reason.rfind("refresh: ", 0) != 0)
+          std::cout << "depowder-planner: plan " << plan->plan_id << " (" << plan->part << ", " << plan->num_waypoints
+                    << " waypoints): " << plan->reason << std::endl;
+      }
+      for (const std::string& e : bus.takeErrors()) std::cerr << "depowder-planner: " << e << std::endl;
+
+      const auto& s = logic.stats();
+      heartbeat.setStat("plans", static_cast<double>(s.plans));
+      heartbeat.setStat("holds", static_cast<double>(s.holds));
+      heartbeat.setStat("refreshes", static_cast<double>(s.refreshes));
+      heartbeat.setStat("rejected", static_cast<double>(s.rejected));
+      heartbeat.setStat("planning_ms", s.last_planning_ms);
+      heartbeat.setStat("path_ms", s.last_path_ms);
+      for (const planner::PartReport& p : logic.planner().parts()) {
+        heartbeat.setStat("phase_" + p.name, static_cast<double>(p.phase));
+        heartbeat.setStat("cycles_" + p.name, p.cycles);
+        heartbeat.setStat("lost_" + p.name, p.lost ? 1 : 0);
+      }
+      if (s.holding)
+        heartbeat.setState(heartbeat_t::DEGRADED, s.last_reason);
+      else
+        heartbeat.setState(heartbeat_t::RUNNING);
+      heartbeat.tick();
+    }
+    heartbeat.setState(heartbeat_t::STOPPING);
+    heartbeat.publish();
+  } catch (const std::exception& e) {
+    std::cerr << "depowder-planner: " << e.what() << std::endl;
+    return 1;
+  }
+  return 0;
+}

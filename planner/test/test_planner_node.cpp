@@ -1,0 +1,163 @@
+// depowder-planner's message layer without a network: the YAML section, message conversion,
+// bad messages rejected with a reason, plans on the wire carrying IK solutions.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/parts.hpp"
+#include "fixtures.hpp"
+#include "planner_node.hpp"
+
+using namespace depowder;
+using namespace depowder::planner;
+
+namespace {
+
+const std::string kCube = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/cube.stl";
+
+/// A one-cube cell with the arm as in the default cell but a 25 cm nozzle (see fixtures.hpp).
+std::string cellYaml(const std::string& planner_section = "planner: {}\n") {
+  return "parts:\n  - name: cube\n    mesh: " + kCube +
+         "\n    initial_pose: {xyz: [0.0, 0.0, 0.03], rpy_deg: [0, 0, 0]}\n"
+         "robot:\n  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
+         "  tool_offset: {xyz: [0, 0, 0.25], rpy_deg: [0, 0, 0]}\n" +
+         planner_section;
+}
+
+void expectError(const std::string& planner_section, const std::string& needle) {
+  try {
+    readPlannerOptions(node::loadCellFromString(cellYaml(planner_section), "bad.yaml"));
+    ADD_FAILURE() << "accepted:\n" << planner_section;
+  } catch (const node::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+  }
+}
+
+TEST(PlannerOptions, DefaultCellSectionMatchesTheStructDefaults) {
+  const node::CellConfig cell = node::loadCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/cell.yaml");
+  const PlannerNodeOptions o = readPlannerOptions(cell);
+  const PlannerConfig d;
+  EXPECT_EQ(o.planner.vacuum.standoff, d.vacuum.standoff);
+  EXPECT_EQ(o.planner.vacuum.layer_depth, d.vacuum.layer_depth);
+  EXPECT_EQ(o.planner.blast.standoff, d.blast.standoff);
+  EXPECT_EQ(o.planner.transition.time_limit, d.transition.time_limit);
+  EXPECT_EQ(o.planner.replan.refresh_s, d.replan.refresh_s);
+  EXPECT_EQ(o.planner.nozzle.radius, d.nozzle.radius);
+  EXPECT_EQ(o.planner.collision.max_joint_step, d.collision.max_joint_step);
+  // The workspace is the driver's, less its margin.
+  EXPECT_NEAR(o.planner.collision.workspace_max.x(), 0.195, 1e-12);
+  EXPECT_NEAR(o.planner.collision.workspace_min.y(), -0.145, 1e-12);
+}
+
+TEST(PlannerOptions, RejectsUnknownKeysAndBadValues) {
+  expectError("planner:\n  vacuum: {standof: 0.02}\n", "standof");
+  expectError("planner:\n  vacuum: {standoff: 0.5}\n", "standoff");
+  expectError("planner:\n  vacuum: {standoff: 0.012}\n", "nozzle.radius");
+  expectError("planner:\n  replan: {refresh_s: 2.0}\n", "plan_max_age");
+  expectError("planner:\n  colour: red\n", "colour");
+}
+
+class NodeTest : public ::testing::Test {
+ protected:
+  node::CellConfig cell = node::loadCellFromString(cellYaml(), "test.yaml");
+  PlannerNodeOptions options = readPlannerOptions(cell);
+  PlannerNode node{cell, options};
+  std::int64_t utime = 5000000;
+
+  part_pose_t pose(const Pose& T) const {
+    part_pose_t m{};
+    m.utime = utime;
+    m.part = "cube";
+    m.method = "cu";
+    m.status = part_pose_t::TRACKING;
+    m.T_cell_part = node::toMsg(T);
+    return m;
+  }
+  progress_t progress(const Pose& T, double powder) const {
+    progress_t m{};
+    m.utime = utime;
+    m.part = "cube";
+    m.phase = progress_t::PHASE_VACUUM_TRACKED;
+    m.status = progress_t::OK;
+    m.eta = 0.5;
+    m.h_pow = powder;
+    m.h_max = T.translation().z() + 0.03;
+    m.h_min = T.translation().z() - 0.03;
+    m.T_cell_part = node::toMsg(T);
+    for (const Point& p : test::syntheticContour(transformed(parts::byName("cube"), T), powder))
+      m.contour.push_back({static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())});
+    m.num_contour = static_cast<std::int32_t>(m.contour.size());
+    m.num_band = 0;
+    return m;
+  }
+};
+
+TEST_F(NodeTest, PlanOnTheWireCarriesIkSolutionsAndTheFrameUtime) {
+  const Pose T = makePoseRpy({0.02, 0.01, 0.03}, 0, 0, 0.3);
+  ASSERT_TRUE(node.onPose(pose(T)).ok());
+  ASSERT_TRUE(node.onProgress(progress(T, 0.04)).ok());
+  const auto msg = node.step();
+  ASSERT_TRUE(msg);
+  EXPECT_EQ(msg->utime, utime);
+  EXPECT_EQ(msg->part, "cube");
+  EXPECT_EQ(msg->phase, +progress_t::PHASE_VACUUM_TRACKED);
+  ASSERT_GT(msg->num_waypoints, 20);
+  ASSERT_EQ(msg->num_waypoints, static_cast<std::int32_t>(msg->waypoints.size()));
+  int vacuum = 0;
+  for (const waypoint_t& w : msg->waypoints) {
+    const auto T_w = node::fromMsg(w.T_cell_nozzle);
+    ASSERT_TRUE(T_w);
+    const robot::Joints q{w.q[0], w.q[1], w.q[2], w.q[3], w.q[4], w.q[5]};
+    EXPECT_LT((robot::forwardNozzle(options.arm, q).translation() - T_w->translation()).norm(), 1e-5);
+    EXPECT_GT(w.speed, 0.0);
+    if (w.tool == waypoint_t::TOOL_VACUUM) ++vacuum;
+  }
+  EXPECT_GT(vacuum, 20);
+  EXPECT_EQ(node.stats().plans, 1);
+  EXPECT_FALSE(node.step()) << "nothing changed";
+}
+
+TEST_F(NodeTest, BadMessagesAreRejectedWithAReason) {
+  part_pose_t bad = pose(Pose::Identity());
+  bad.T_cell_part.position[0] = std::nan("");
+  const InputResult r = node.onPose(bad);
+  EXPECT_EQ(r.status, InputStatus::kInvalidPose);
+  EXPECT_NE(r.reason.find("cube"), std::string::npos) << r.reason;
+  part_pose_t unnormalised = pose(Pose::Identity());
+  unnormalised.T_cell_part.orientation[0] = 2.0;
+  EXPECT_EQ(node.onPose(unnormalised).status, InputStatus::kInvalidPose);
+  progress_t empty = progress(Pose::Identity(), 0.04);
+  empty.contour.clear();
+  empty.num_contour = 0;
+  const InputResult e = node.onProgress(empty);
+  EXPECT_EQ(e.status, InputStatus::kInvalidContour);
+  EXPECT_NE(e.reason.find("0 points"), std::string::npos) << e.reason;
+  progress_t mismatch = progress(Pose::Identity(), 0.04);
+  mismatch.num_contour = 3;
+  EXPECT_EQ(node.onProgress(mismatch).status, InputStatus::kInvalidContour);
+  robot_state_t robot{};
+  robot.q[2] = std::nan("");
+  EXPECT_EQ(node.onRobot(robot).status, InputStatus::kInvalidValue);
+  EXPECT_EQ(node.stats().rejected, 5);
+  // Nothing valid: a hold with no waypoints and a reason.
+  const auto msg = node.step();
+  ASSERT_TRUE(msg);
+  EXPECT_EQ(msg->num_waypoints, 0);
+  EXPECT_NE(msg->reason.find("hold"), std::string::npos) << msg->reason;
+  EXPECT_TRUE(node.stats().holding);
+}
+
+TEST_F(NodeTest, NoPoseProgressWithNaNHeightsIsAccepted) {
+  // The estimator sends NaN heights without a contour; that is a state, not a bad message.
+  progress_t m = progress(Pose::Identity(), 0.04);
+  m.status = progress_t::NO_POSE;
+  m.h_pow = m.h_max = m.h_min = std::nan("");
+  m.contour.clear();
+  m.num_contour = 0;
+  EXPECT_TRUE(node.onProgress(m).ok());
+}
+
+}  // namespace
