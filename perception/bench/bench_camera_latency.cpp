@@ -98,6 +98,13 @@ int main(int argc, char** argv) {
               width * height * 2 / 1000.0);
   std::printf("  POINTS published           %lld (partial: %g; depowder-camera dropped %lld frames)\n", published,
               r.stat("frames_partial"), static_cast<long long>(r.last_heartbeat.dropped));
+  std::string reasons;
+  for (std::size_t i = 0; i < r.last_heartbeat.stat_names.size(); ++i)
+    if (r.last_heartbeat.stat_names[i].rfind("dropped_", 0) == 0 && r.last_heartbeat.stat_values[i] > 0)
+      reasons += " " + r.last_heartbeat.stat_names[i].substr(8) + " " +
+                 std::to_string(static_cast<long long>(r.last_heartbeat.stat_values[i]));
+  std::printf("  DEPTH frames used          %g of %d%s%s\n", r.stat("frames_in") - r.last_heartbeat.dropped,
+              2 * run.steps, reasons.empty() ? "" : "; dropped:", reasons.c_str());
   std::printf("  POINTS received            %zu   lost %lld   seq gaps %lld\n", r.clouds.size(), lost, gaps);
   std::printf("  POINTS rate                %.2f Hz\n", span_s > 0 ? (r.clouds.size() - 1) / span_s : 0.0);
   std::printf("  POINTS size                median %.0f B, max %.0f B (%.1f kB)\n", percentile(bytes, 0.5),

@@ -18,7 +18,12 @@ CameraProxy::CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& 
 FrameError CameraProxy::addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival) {
   auto it = deprojectors_.find(camera.name);
   if (it == deprojectors_.end()) it = deprojectors_.emplace(camera.name, Deprojector(crop_)).first;
-  return accept(it->second(image, camera), camera.name, image.utime, arrival);
+  Cloud storage;
+  if (!spare_.empty()) {
+    storage = std::move(spare_.back());
+    spare_.pop_back();
+  }
+  return accept(it->second(image, camera, std::move(storage)), camera.name, image.utime, arrival);
 }
 
 FrameError CameraProxy::addCameraPoints(const Cloud& camera_points, std::int64_t utime, const PinholeCamera& camera,
@@ -51,11 +56,12 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   out.utime = merged.utime;
   out.missing = std::move(merged.missing);
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
-  for (const CameraFrame& f : merged.sources) {
+  for (CameraFrame& f : merged.sources) {
     out.sources.push_back(f.camera);
     out.source_utimes.push_back(f.utime);
     out.points_in += f.points.size();
     grid_.add(f.points);
+    if (spare_.size() < 8) spare_.push_back(std::move(f.points));  // capacity reused by the next frames
   }
   VoxelGrid::Result voxels = grid_.extract(config_.outlier_min_neighbours);
   out.points = std::move(voxels.points);

@@ -194,8 +194,10 @@ void Deprojector::build(const DepthImage& image, const PinholeCamera& camera) {
     }
 }
 
-CameraCloud Deprojector::operator()(const DepthImage& image, const PinholeCamera& camera) {
+CameraCloud Deprojector::operator()(const DepthImage& image, const PinholeCamera& camera, Cloud&& storage) {
   CameraCloud out;
+  out.points = std::move(storage);  // reused capacity: no fresh pages to fault in every frame
+  out.points.clear();
   out.error = checkDepthImage(image, camera);
   if (!out.error.ok()) return out;
   if (!current(image, camera)) build(image, camera);
@@ -204,7 +206,6 @@ CameraCloud Deprojector::operator()(const DepthImage& image, const PinholeCamera
   const Eigen::Vector3d t = camera_.T_cell_camera.translation();
   FrameCounts& n = out.counts;
   n.inputs = image.depth.size();
-  out.points.reserve(n.inputs / 4);
   const std::uint16_t* d = image.depth.data();
   const Limits* L = limits_.data();
   for (int v = 0; v < h; ++v) {

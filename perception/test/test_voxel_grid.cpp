@@ -118,4 +118,10 @@ TEST(VoxelGrid, IsolatedVoxelRemoval) {
   // Demanding 4 neighbours also removes the plane's 4 corner voxels.
   grid.add(cloud);
   EXPECT_EQ(grid.extract(4).points.size(), 396u);
+  // The hashed table (no fixed neighbour offsets) decides the same.
+  VoxelGrid hashed(kRegion, 0.005, 0);
+  hashed.add(cloud);
+  const VoxelGrid::Result h = hashed.extract(3);
+  EXPECT_EQ(h.outliers, 50u);
+  EXPECT_EQ(sorted(h.points), sorted(r.points));
 }

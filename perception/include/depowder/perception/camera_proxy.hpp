@@ -68,6 +68,7 @@ class CameraProxy {
   PerceptionConfig config_;
   Eigen::AlignedBox3d crop_;
   std::map<std::string, Deprojector> deprojectors_;  ///< per camera name
+  std::vector<Cloud> spare_;                         ///< released clouds, their capacity reused
   FrameMerger merger_;
   VoxelGrid grid_;
   ProxyCounters counters_;

@@ -73,7 +73,8 @@ CameraCloud deproject(const DepthImage& image, const PinholeCamera& camera, cons
 class Deprojector {
  public:
   explicit Deprojector(const Eigen::AlignedBox3d& crop) : crop_(crop) {}
-  CameraCloud operator()(const DepthImage& image, const PinholeCamera& camera);
+  /// `storage`: a cloud whose capacity is reused for the output (its points are discarded).
+  CameraCloud operator()(const DepthImage& image, const PinholeCamera& camera, Cloud&& storage = {});
   int rebuilds() const { return rebuilds_; }  ///< how often the tables were (re)computed
 
  private:

@@ -3,6 +3,7 @@
 // scale: flying pixels between a part's edge and the powder behind it are isolated).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
@@ -50,6 +51,7 @@ class VoxelGrid {
   std::vector<std::int32_t> slot_of_;                         ///< dense: cell -> index into voxels_, -1 = empty
   std::unordered_map<std::uint64_t, std::int32_t> slot_map_;  ///< sparse fallback
   std::vector<Voxel> voxels_;
+  std::vector<std::ptrdiff_t> neighbour_offsets_;  ///< the 26 neighbours in the dense table
   std::size_t outside_ = 0;
 };
 
