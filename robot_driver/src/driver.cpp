@@ -102,7 +102,10 @@ void Driver::plannerHeartbeat() {
 void Driver::estop(bool stop, const std::string& why) {
   if (stop) {
     const bool first = !estop_latched_.exchange(true);
-    if (first) estop_ns_ = monoNs();
+    if (first) {
+      estop_ns_ = monoNs();
+      ++estop_events_;
+    }
     // Halt at once from this thread: the watch connection never waits behind a slvMove.
     if (session_.isOpen()) session_.halt();
     std::lock_guard<std::mutex> lock(mutex_);
@@ -154,6 +157,7 @@ bool Driver::enableFromCurrentPosition() {
   if (estop_latched_) {
     session_.motorOff();
     estop_handled_ = true;
+    estop_seen_ = estop_events_.load();
     setMode(DriverMode::EStopped, "ESTOP active; waiting for a reset");
     return true;
   }
@@ -221,21 +225,22 @@ bool Driver::cycle() {
     connectAndEnable();
     return false;
   }
-  // 2. ESTOP: halted already by estop(); switch the motor off once, then wait for the reset.
-  if (estop_latched_) {
-    if (!estop_handled_) {
-      session_.halt();
-      session_.setTool(Tool::Off, true);
-      session_.motorOff();
-      generator_.reset(limiter_.last());
-      estop_handled_ = true;
-      std::lock_guard<std::mutex> lock(mutex_);
-      status_.mode = DriverMode::EStopped;
-      status_.qd = {};
-      status_.tool = Tool::Off;
-    }
-    return false;
+  // 2. ESTOP: halted already by estop(); switch the motor off once per event (even if the
+  //    reset came before this loop noticed), then wait for the reset.
+  const std::int64_t events = estop_events_.load();
+  if (events != estop_seen_) {
+    estop_seen_ = events;
+    session_.halt();
+    session_.setTool(Tool::Off, true);
+    session_.motorOff();
+    generator_.reset(limiter_.last());
+    estop_handled_ = true;
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_.mode = DriverMode::EStopped;
+    status_.qd = {};
+    status_.tool = Tool::Off;
   }
+  if (estop_latched_) return false;
   if (estop_handled_) {
     // Reset: re-enable where the arm is, without a plan.
     {
@@ -291,6 +296,9 @@ bool Driver::slaveCycle() {
   in.heartbeat_age_s = hb_age;
   in.nozzle = forwardNozzle(cfg_.arm, limiter_.last()).translation();
   in.was_inside = was_inside_;
+  // Braking (with a margin for the discrete profile) plus the cycle that notices and the cycle
+  // that sends the first unchanged command.
+  in.stop_lead_s = 1.2 * generator_.brakingTime() + 2 * cfg_.trajectory.cycle_s;
   const SafetyVerdict verdict = checkSafety(cfg_.safety, in);
   if (verdict.stop != StopReason::None) {
     generator_.stop();
@@ -314,6 +322,8 @@ bool Driver::slaveCycle() {
   if (r.ok) r = session_.move(cmd.q, &measured);
   const std::int64_t t_done = monoNs();
   if (!r.ok) {
+    // An ESTOP halted the arm under this exchange: not a fault, the next cycle handles it.
+    if (estop_events_.load() != estop_seen_) return false;
     const bool lost = r.connectionLost();
     if (lost) session_.abort();
     std::lock_guard<std::mutex> lock(mutex_);

@@ -87,7 +87,9 @@ SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std:
 SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in) {
   SafetyVerdict v;
   if (!in.following) return v;
-  v = checkNewPlan(cfg, in.now_utime, in.plan_utime, in.heartbeat_age_s);
+  const double lead = std::max(0.0, in.stop_lead_s);
+  v = checkNewPlan(cfg, in.now_utime + static_cast<std::int64_t>(lead * 1e6), in.plan_utime,
+                   in.heartbeat_age_s >= 1e9 ? in.heartbeat_age_s : in.heartbeat_age_s + lead);
   if (v.stop != StopReason::None) return v;
   if (in.was_inside && !cfg.workspace.contains(in.nozzle, cfg.workspace_margin)) {
     char buf[160];

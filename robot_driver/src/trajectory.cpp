@@ -184,6 +184,19 @@ void TrajectoryGenerator::stop() {
   tool_ = Tool::Off;
 }
 
+double TrajectoryGenerator::brakingTime() const {
+  if (!hasPath() || speed_ <= 0) return 0.0;
+  // Braking may run into later segments with a lower acceleration limit: use the lowest ahead
+  // within the braking distance at the current segment's rate (doubled as a margin).
+  double a = segments_[segment_].amax;
+  double dist = speed_ * speed_ / a, left = segments_[segment_].length - s_;
+  for (std::size_t k = segment_ + 1; k < segments_.size() && left < 2 * dist; ++k) {
+    a = std::min(a, segments_[k].amax);
+    left += segments_[k].length;
+  }
+  return speed_ / a;
+}
+
 TrajectoryGenerator::Segment TrajectoryGenerator::makeSegment(const Joints& a, const Joints& b,
                                                               const PathPoint& to) const {
   Segment s;

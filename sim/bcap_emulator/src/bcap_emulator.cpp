@@ -4,6 +4,8 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <pthread.h>
+#include <sched.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -147,6 +149,12 @@ void BcapEmulator::acceptLoop() {
       ++stats_.connections;
     }
     conn->thread = std::thread([this, conn] { serve(conn); });
+    if (config_.realtime) {
+      // The controller's cycle should not wait behind the simulator's rendering.
+      sched_param sp{};
+      sp.sched_priority = 49;
+      pthread_setschedparam(conn->thread.native_handle(), SCHED_FIFO, &sp);
+    }
     connections_.push_back(conn);
   }
 }

@@ -227,10 +227,14 @@ TEST(DriverEmulator, LostPlannerHeartbeatStops) {
   const auto t0 = std::chrono::steady_clock::now();
   ASSERT_TRUE(rig.waitMode(DriverMode::Holding, 2.0));
   const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  // The last heartbeat came up to 50 ms before t0; the limit is 0.5 s.
-  EXPECT_LE(t, 0.5 + 0.1);
+  // At rest (HOLDING) around the 0.5 s limit (the stop starts early by the braking time; the
+  // last heartbeat came up to 50 ms before t0). Loose bounds: the precise figure is
+  // depowder-driver-bench-safety's.
+  EXPECT_LE(t, 0.5 + 0.2);
+  EXPECT_GE(t, 0.5 - 0.05 - 0.2);
   EXPECT_NE(rig.driver().status().reason.find("heartbeat"), std::string::npos);
-  // Without heartbeats new plans are refused.
+  // Once the heartbeat is older than the limit, new plans are refused.
+  std::this_thread::sleep_for(100ms);
   EXPECT_FALSE(rig.driver().submitPlan(linePlan(2, {{0.0, 0.0, 0.2}}, 0.05)).accepted);
 }
 

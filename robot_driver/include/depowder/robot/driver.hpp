@@ -125,6 +125,7 @@ class Driver {
   bool have_plan_ = false;
   std::int64_t heartbeat_ns_ = 0;  ///< CLOCK_MONOTONIC of the last planner heartbeat, 0 never
   std::atomic<bool> estop_latched_{false};
+  std::atomic<std::int64_t> estop_events_{0};  ///< estop(true) calls; the loop handles each one
   std::atomic<std::int64_t> estop_ns_{0};
   DriverStatus status_;
   Joints q_command_shared_{};
@@ -132,6 +133,7 @@ class Driver {
   // Loop-thread state.
   bool connected_once_ = false;
   bool estop_handled_ = false;
+  std::int64_t estop_seen_ = 0;
   bool safety_stopped_ = false;
   bool was_inside_ = true;
   std::int64_t next_connect_ns_ = 0;

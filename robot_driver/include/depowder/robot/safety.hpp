@@ -67,6 +67,7 @@ struct SafetyInputs {
   std::int64_t plan_utime = 0;                       ///< utime of the executing plan
   double heartbeat_age_s = 1e9;                      ///< s since the last planner heartbeat (1e9: never)
   Eigen::Vector3d nozzle = Eigen::Vector3d::Zero();  ///< commanded nozzle position, cell frame
+  double stop_lead_s = 0;  ///< s, braking time + one cycle: stop this early so the arm is at rest by the limit
   bool was_inside = true;  ///< the previous command was inside (leaving is what stops; an arm that
                            ///< starts outside may move back in)
 };
@@ -76,7 +77,8 @@ struct SafetyVerdict {
   std::string reason;  ///< human-readable, with the figures
 };
 
-/// Whether the arm must come to a controlled stop this cycle.
+/// Whether the arm must come to a controlled stop this cycle. Age limits are applied
+/// `stop_lead_s` early, so that the arm is at rest when the limit is reached.
 SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in);
 
 /// Whether a newly received plan may be executed at all (fresh enough, planner alive).

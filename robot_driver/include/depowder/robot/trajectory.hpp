@@ -123,6 +123,8 @@ class TrajectoryGenerator {
 
   const TrajectorySample& current() const { return sample_; }
   bool atRest() const { return speed_ == 0.0 && !hasPath(); }
+  /// Time a controlled stop started now would take, s (an upper estimate).
+  double brakingTime() const;
   bool stopping() const { return stopping_; }
   bool hasPath() const { return segment_ < segments_.size(); }
   /// True once the last plan was run to its end.

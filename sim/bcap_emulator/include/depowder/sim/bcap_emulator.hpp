@@ -45,6 +45,8 @@ struct BcapEmulatorConfig {
   std::string vacuum_variable = "IO24";  ///< controller I/O variable that switches the vacuum
   std::string air_variable = "IO25";     ///< controller I/O variable that switches the air blast
   int max_connections = 8;               ///< further connections are closed at once
+  bool realtime = true;  ///< try SCHED_FIFO for the connection threads (a real RC8 is real-time); ignored
+                         ///< without the privilege
 };
 
 struct EmulatorJointState {
