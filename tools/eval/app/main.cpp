@@ -1,0 +1,349 @@
+// depowder-eval: the paper's experiments (Sec. V) on the simulator, one command each.
+//   depowder-eval static  [--part cube] ...   Table I
+//   depowder-eval speed   [--part cube] ...   Fig. 10
+//   depowder-eval report  [--out docs]        both for the five default parts, docs/results.md + plots
+// The sim, perception, tracker and progress libraries run in process (no LCM); a seed fixes
+// every random draw. Ctrl-C stops at the next frame and writes what finished.
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "depowder/eval/experiment.hpp"
+#include "depowder/eval/report.hpp"
+#include "depowder/node/cell.hpp"
+#include "depowder/node/shutdown.hpp"
+#include "depowder/parts.hpp"
+#include "terminal.hpp"
+
+using namespace depowder;
+using namespace depowder::eval;
+
+namespace {
+
+const char* kUsage =
+    "usage: depowder-eval static|speed|report [options]\n"
+    "  static   Table I: a still part at each visibility, the nozzle circling it; mean errors\n"
+    "  speed    Fig. 10: linear actuator and turntable at increasing speed; highest speed tracked\n"
+    "  report   static + speed for the five default parts and three methods -> DIR/results.md + PNGs\n"
+    "  (moving, Table II, needs the simulator's rigid-body physics, which does not exist yet)\n"
+    "options:\n"
+    "  --part NAME[,NAME]     default parts (cube, cup, propeller, owl, pipe; default: all five)\n"
+    "  --mesh FILE --xi M     any mesh (STL/OBJ/PLY) instead, with its template distance xi (m)\n"
+    "  --mesh-scale S         multiplies the mesh's coordinates (0.001 for millimetres; default 1)\n"
+    "  --methods LIST         cu,continuous,vanilla (default: all three)\n"
+    "  --trials N             seeded trials per part and visibility (static 5, speed 2)\n"
+    "  --speed-trials N       report: trials of the speed experiment (default 2)\n"
+    "  --seed S               (default 1)\n"
+    "  --visibilities LIST    e.g. 0.2,0.4,0.6,0.8,1.0 (the default)\n"
+    "  --duration S           static: seconds of frames per trial (default 2.5)\n"
+    "  --cell FILE            box and cameras from this cell file (default config/cell.yaml)\n"
+    "  --json FILE            write the results as JSON\n"
+    "  --out DIR              report: where results.md and the PNGs go (default docs)\n"
+    "  --from FILE            report: rebuild DIR/results.md from a JSON file that report --json wrote\n"
+    "  --notes FILE           report: markdown appended verbatim (default tools/eval/report_notes.md)\n"
+    "  --quiet                no progress bar\n";
+
+int usage(const std::string& error = "") {
+  if (!error.empty()) std::cerr << "depowder-eval: " << error << "\n";
+  std::cerr << kUsage;
+  return error.empty() ? 0 : 2;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+double number(const std::string& flag, const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used == text.size()) return v;
+  } catch (const std::exception&) {
+  }
+  throw std::invalid_argument(flag + ": not a number: '" + text + "'");
+}
+
+struct Args {
+  std::string command;
+  std::vector<std::string> parts;
+  std::string mesh, json, cell, out = "docs", from, notes;
+  double xi = 0, mesh_scale = 1;
+  std::vector<tracker::Method> methods{tracker::Method::kCu, tracker::Method::kContinuous, tracker::Method::kVanilla};
+  int trials = 0, speed_trials = 0;
+  std::uint32_t seed = 1;
+  std::vector<double> visibilities;
+  double duration = 0;
+  bool quiet = false;
+  std::string command_line;  ///< as typed, for the report
+};
+
+Args parse(int argc, char** argv) {
+  Args a;
+  a.command = argv[1];
+  a.command_line = "depowder-eval " + a.command;
+  for (int i = 2; i < argc; ++i) {
+    const std::string f = argv[i];
+    a.command_line += " " + f;
+    if (f == "--quiet") {
+      a.quiet = true;
+      continue;
+    }
+    if (i + 1 >= argc) throw std::invalid_argument("missing value after " + f);
+    const std::string v = argv[++i];
+    a.command_line += " " + v;
+    if (f == "--part") {
+      for (const std::string& p : split(v)) a.parts.push_back(p);
+    } else if (f == "--mesh") {
+      a.mesh = v;
+    } else if (f == "--xi") {
+      a.xi = number(f, v);
+      if (!(a.xi > 0 && a.xi < 0.1)) throw std::invalid_argument("--xi must be in (0, 0.1) m");
+    } else if (f == "--mesh-scale") {
+      a.mesh_scale = number(f, v);
+      if (!(a.mesh_scale > 0)) throw std::invalid_argument("--mesh-scale must be > 0");
+    } else if (f == "--methods") {
+      a.methods.clear();
+      for (const std::string& m : split(v)) {
+        const auto method = tracker::methodFromString(m);
+        if (!method) throw std::invalid_argument("--methods: unknown method '" + m + "' (cu, continuous, vanilla)");
+        a.methods.push_back(*method);
+      }
+      if (a.methods.empty()) throw std::invalid_argument("--methods: empty list");
+    } else if (f == "--trials" || f == "--speed-trials") {
+      const double n = number(f, v);
+      if (!(n >= 1 && n <= 1000 && n == std::floor(n))) throw std::invalid_argument(f + " must be an integer 1..1000");
+      (f == "--trials" ? a.trials : a.speed_trials) = static_cast<int>(n);
+    } else if (f == "--seed") {
+      const double s = number(f, v);
+      if (!(s >= 0 && s <= 4294967295.0 && s == std::floor(s)))
+        throw std::invalid_argument("--seed must be an integer 0..4294967295");
+      a.seed = static_cast<std::uint32_t>(s);
+    } else if (f == "--visibilities") {
+      for (const std::string& x : split(v)) {
+        const double e = number(f, x);
+        if (!(e >= 0 && e <= 1)) throw std::invalid_argument("--visibilities: each in [0, 1], got " + x);
+        a.visibilities.push_back(e);
+      }
+    } else if (f == "--duration") {
+      a.duration = number(f, v);
+      if (!(a.duration > 0 && a.duration <= 600)) throw std::invalid_argument("--duration must be in (0, 600] s");
+    } else if (f == "--cell") {
+      a.cell = v;
+    } else if (f == "--json") {
+      a.json = v;
+    } else if (f == "--out") {
+      a.out = v;
+    } else if (f == "--from") {
+      a.from = v;
+    } else if (f == "--notes") {
+      a.notes = v;
+    } else {
+      throw std::invalid_argument("unknown option " + f);
+    }
+  }
+  if (!a.mesh.empty() && !a.parts.empty()) throw std::invalid_argument("give --part or --mesh, not both");
+  if (!a.mesh.empty() && a.xi <= 0) throw std::invalid_argument("--mesh needs --xi (m)");
+  if (a.mesh.empty() && a.xi > 0 && a.parts.empty()) throw std::invalid_argument("--xi goes with --mesh");
+  return a;
+}
+
+EvalCell loadEvalCell(const std::string& path) {
+  const node::CellConfig cell = node::loadCell(path.empty() ? node::defaultCellPath() : path);
+  EvalCell out;
+  out.box.size = cell.box.size;
+  out.box.wall = cell.box.wall;
+  for (const node::CameraConfig& c : cell.cameras) {
+    sim::CameraModel m =
+        sim::CameraModel::fromFov(c.name, c.width, c.height, c.fov_h_deg, c.fov_v_deg, c.T_cell_camera);
+    m.min_range = c.min_range;
+    m.max_range = c.max_range;
+    m.rate_hz = c.rate_hz;
+    m.noise.sigma_base = c.noise.sigma_base;
+    m.noise.sigma_per_m = c.noise.sigma_per_m;
+    m.noise.flying_pixel_prob = c.noise.flying_pixel_prob;
+    m.noise.grazing_dropout_deg = c.noise.grazing_dropout_deg;
+    m.noise.dropout_prob = c.noise.dropout_prob;
+    out.cameras.push_back(m);
+  }
+  if (out.cameras.empty()) throw std::invalid_argument(cell.file + ": no cameras");
+  if (!out.cameras.empty()) out.fps = out.cameras.front().rate_hz;
+  return out;
+}
+
+std::vector<EvalPart> partsOf(const Args& a) {
+  std::vector<EvalPart> out;
+  if (!a.mesh.empty()) {
+    std::string name = a.mesh.substr(a.mesh.find_last_of('/') + 1);
+    name = name.substr(0, name.find_last_of('.'));
+    out.push_back({name, loadMesh(a.mesh, a.mesh_scale), a.xi});
+    return out;
+  }
+  for (const std::string& p : a.parts.empty() ? parts::names() : a.parts) {
+    EvalPart part = defaultPart(p);  // throws naming the known parts
+    if (a.xi > 0) part.xi = a.xi;
+    out.push_back(std::move(part));
+  }
+  return out;
+}
+
+RunControl control(ProgressBar& bar) {
+  RunControl c;
+  c.stop = [] { return node::shutdownRequested(); };
+  c.progress = [&bar](double done, double total, const std::string& what) { bar.update(done, total, what); };
+  return c;
+}
+
+StaticOptions staticOptions(const Args& a) {
+  StaticOptions o;
+  if (a.trials > 0) o.trials = a.trials;
+  if (!a.visibilities.empty()) o.visibilities = a.visibilities;
+  if (a.duration > 0) o.duration = a.duration;
+  o.seed = a.seed;
+  return o;
+}
+
+SpeedOptions speedOptions(const Args& a, int trials) {
+  SpeedOptions o;
+  if (trials > 0) o.trials = trials;
+  if (!a.visibilities.empty()) o.visibilities = a.visibilities;
+  o.seed = a.seed;
+  return o;
+}
+
+void save(const std::string& path, const Json& doc) {
+  if (path.empty()) return;
+  writeJsonFile(path, doc);
+  std::cerr << "depowder-eval: wrote " << path << "\n";
+}
+
+const char* kMovingNote =
+    "**Not reproduced**: pushing a part through powder with the arm needs rigid-body physics (contact, "
+    "friction, the powder's drag), which the simulator does not have yet (sim/ has scripted poses only). "
+    "Scripted poses pretending to be a push would measure something else, so this table holds only the "
+    "paper's figures until `depowder-eval moving` exists.";
+
+std::string defaultNotesPath() {
+#ifdef DEPOWDER_SOURCE_DIR
+  return std::string(DEPOWDER_SOURCE_DIR) + "/tools/eval/report_notes.md";
+#else
+  return "tools/eval/report_notes.md";
+#endif
+}
+
+std::string readText(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  if (!f) return "";
+  std::string text;
+  char buf[4096];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) text.append(buf, n);
+  std::fclose(f);
+  return text;
+}
+
+void printStatic(const StaticResult& r) {
+  std::printf("%-10s %-11s %5s %9s %9s %8s %8s %7s\n", "part", "method", "vis", "R_err deg", "t_err cm", "tracked",
+              "updates", "ms");
+  for (const StaticRow& row : r.rows)
+    std::printf("%-10s %-11s %4.0f%% %9.2f %9.3f %8.2f %8.1f %7.2f\n", row.part.c_str(), row.method.c_str(),
+                row.visibility * 100, row.rot_err_deg, row.trans_err_cm, row.tracked_fraction, row.template_updates,
+                row.track_ms);
+}
+
+void printSpeed(const SpeedResult& r) {
+  std::printf("%-10s %-11s %5s %14s %14s\n", "part", "method", "vis", "max cm/s", "max deg/s");
+  for (const SpeedRow& row : r.rows)
+    std::printf("%-10s %-11s %4.0f%% %14.1f %14.1f\n", row.part.c_str(), row.method.c_str(), row.visibility * 100,
+                row.max_trans_speed_cm_s, row.max_rot_speed_deg_s);
+}
+
+int run(const Args& a) {
+  node::installShutdownHandlers();
+  if (a.command == "report" && !a.from.empty()) {
+    const Json doc = readJsonFile(a.from);
+    ReportInputs in{doc.at("static"), doc.at("speed"), kMovingNote, doc.at("command").string(),
+                    readText(a.notes.empty() ? defaultNotesPath() : a.notes)};
+    for (const std::string& f : writeReport(in, a.out)) std::cerr << "depowder-eval: wrote " << f << "\n";
+    return 0;
+  }
+  const EvalCell cell = loadEvalCell(a.cell);
+  const std::vector<EvalPart> parts = partsOf(a);
+  bool interrupted = false;
+  if (a.command == "static") {
+    ProgressBar bar("static", !a.quiet);
+    const StaticOptions o = staticOptions(a);
+    const StaticResult r = runStatic(cell, parts, a.methods, o, control(bar));
+    bar.finish();
+    printStatic(r);
+    save(a.json, toJson(r, o));
+    interrupted = r.interrupted;
+  } else if (a.command == "speed") {
+    ProgressBar bar("speed", !a.quiet);
+    const SpeedOptions o = speedOptions(a, a.trials);
+    const SpeedResult r = runSpeed(cell, parts, a.methods, o, control(bar));
+    bar.finish();
+    printSpeed(r);
+    save(a.json, toJson(r, o));
+    interrupted = r.interrupted;
+  } else if (a.command == "report") {
+    const StaticOptions so = staticOptions(a);
+    const SpeedOptions po = speedOptions(a, a.speed_trials);
+    StaticResult sr;
+    SpeedResult pr;
+    {
+      ProgressBar bar("report 1/2 static", !a.quiet);
+      sr = runStatic(cell, parts, a.methods, so, control(bar));
+    }
+    printStatic(sr);
+    if (!sr.interrupted) {
+      ProgressBar bar("report 2/2 speed", !a.quiet);
+      pr = runSpeed(cell, parts, a.methods, po, control(bar));
+    }
+    printSpeed(pr);
+    interrupted = sr.interrupted || pr.interrupted;
+    const Json static_doc = toJson(sr, so);
+    const Json speed_doc = (sr.interrupted && pr.rows.empty()) ? Json() : toJson(pr, po);
+    Json doc = Json::object();
+    doc.set("experiment", "report");
+    doc.set("seed", a.seed);
+    doc.set("command", a.command_line);
+    doc.set("interrupted", interrupted);
+    doc.set("static", static_doc);
+    doc.set("speed", speed_doc);
+    save(a.json, doc);
+    ReportInputs in{static_doc, speed_doc, kMovingNote, a.command_line,
+                    readText(a.notes.empty() ? defaultNotesPath() : a.notes)};
+    for (const std::string& f : writeReport(in, a.out)) std::cerr << "depowder-eval: wrote " << f << "\n";
+  } else {
+    return usage("unknown command '" + a.command + "'");
+  }
+  if (interrupted) {
+    std::cerr << "depowder-eval: interrupted; the results above (and in the JSON) cover the finished trials\n";
+    return 130;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) return usage("missing command");
+  const std::string cmd = argv[1];
+  if (cmd == "--help" || cmd == "-h" || cmd == "help") return usage();
+  if (cmd == "moving")
+    return usage(
+        "moving (Table II) needs the simulator's rigid-body physics (pushing through powder), which sim/ does not "
+        "have yet");
+  try {
+    return run(parse(argc, argv));
+  } catch (const std::exception& e) {
+    std::cerr << "depowder-eval: " << e.what() << "\n";
+    return 2;
+  }
+}

@@ -1,0 +1,56 @@
+#include "experiment_util.hpp"
+
+#include <cmath>
+#include <numeric>
+
+#include "depowder/eval/experiment.hpp"
+
+namespace depowder::eval {
+
+std::uint64_t nameHash(const std::string& name) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (const char c : name) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+Pose perturbed(const Pose& T, double max_trans, double max_rot, std::mt19937& rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Eigen::Vector3d axis(normal(rng), normal(rng), normal(rng));
+  Eigen::Vector3d dir(normal(rng), normal(rng), normal(rng));
+  axis.normalize();
+  dir.normalize();
+  const double angle = max_rot * unit(rng), length = max_trans * unit(rng);
+  Pose out = T;
+  out.linear() = Eigen::AngleAxisd(angle, axis).toRotationMatrix() * T.linear();
+  out.translation() = T.translation() + length * dir;
+  return out;
+}
+
+void advanceFrame(sim::World& world, const EvalCell& cell, const std::function<void(double t)>& before_step) {
+  const int steps = std::max(1, static_cast<int>(std::lround(cell.step_hz / cell.fps)));
+  const double dt = 1.0 / (cell.fps * steps);
+  for (int s = 0; s < steps; ++s) {
+    if (before_step) before_step(world.time() + dt);
+    world.step(dt);
+  }
+}
+
+double mean(const std::vector<double>& v) {
+  return v.empty() ? std::nan("") : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+}
+
+std::string percent(double fraction) { return std::to_string(static_cast<int>(std::lround(fraction * 100))) + "%"; }
+
+tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell& cell) {
+  tracker::TrackerConfig c;
+  c.method = method;
+  c.eta1 = 0.0;
+  c.viewpoints = viewpoints(cell.cameras);
+  return c;
+}
+
+}  // namespace depowder::eval

@@ -1,0 +1,234 @@
+// depowder-eval on short runs: the JSON's shape, CU-ICP's errors under generous bounds,
+// determinism for a seed, the report's tables, and the command line.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "depowder/eval/experiment.hpp"
+#include "depowder/eval/report.hpp"
+
+using namespace depowder;
+using namespace depowder::eval;
+
+namespace {
+
+// The default cell's two cameras (config/cell.yaml), built without YAML.
+EvalCell testCell() {
+  EvalCell cell;
+  for (const double y : {-0.45, 0.45})
+    cell.cameras.push_back(sim::CameraModel::fromFov(y < 0 ? "LEFT" : "RIGHT", 320, 240, 70, 55,
+                                                     sim::cameraLookAt({0.0, y, 0.55}, {0.0, 0.0, 0.05})));
+  return cell;
+}
+
+std::vector<tracker::Method> allMethods() {
+  return {tracker::Method::kCu, tracker::Method::kContinuous, tracker::Method::kVanilla};
+}
+
+void expectNumber(const Json& row, const std::string& key) {
+  ASSERT_TRUE(row.has(key)) << key;
+  EXPECT_TRUE(row.at(key).isNumber()) << key;
+  EXPECT_TRUE(std::isfinite(row.at(key).number())) << key;
+}
+
+const Json* findRow(const Json& doc, const std::string& method) {
+  for (const Json& r : doc.at("rows").elements())
+    if (r.at("method").string() == method) return &r;
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(EvalJson, RoundTripAndErrors) {
+  Json doc = Json::object();
+  doc.set("experiment", "static");
+  doc.set("nan", std::nan(""));
+  Json rows = Json::array();
+  Json r = Json::object();
+  r.set("part", "cu\"p\n");
+  r.set("v", 0.125);
+  r.set("list", Json::arrayOf(std::vector<double>{1, 2.5}));
+  rows.push(r);
+  doc.set("rows", rows);
+  const Json back = Json::parse(doc.dump());
+  EXPECT_EQ(back.at("experiment").string(), "static");
+  EXPECT_TRUE(back.at("nan").isNull());
+  EXPECT_EQ(back.at("rows").at(0).at("part").string(), "cu\"p\n");
+  EXPECT_DOUBLE_EQ(back.at("rows").at(0).at("v").number(), 0.125);
+  EXPECT_DOUBLE_EQ(back.at("rows").at(0).at("list").at(1).number(), 2.5);
+  EXPECT_THROW(Json::parse("{\"a\": }"), JsonError);
+  EXPECT_THROW(Json::parse("[1, 2"), JsonError);
+  EXPECT_THROW(back.at("missing"), JsonError);
+}
+
+TEST(EvalScene, ConversionKeepsTheFrame) {
+  sim::DepthImage f;
+  f.camera = "LEFT";
+  f.time = 1.5;
+  f.width = 4;
+  f.height = 2;
+  f.fx = 100;
+  f.fy = 101;
+  f.cx = 1.5;
+  f.cy = 0.5;
+  f.min_range = 0.25;
+  f.max_range = 9;
+  f.T_cell_camera.translation() << 0.1, 0.2, 0.3;
+  f.depth = {1, 2, 3, 4, 5, 6, 7, 8};
+  const ProxyInput in = toProxyInput(f);
+  EXPECT_EQ(in.image.utime, 1500000);
+  EXPECT_EQ(in.image.depth, f.depth);
+  EXPECT_EQ(in.camera.name, "LEFT");
+  EXPECT_DOUBLE_EQ(in.camera.fy, 101);
+  EXPECT_DOUBLE_EQ(in.camera.max_range, 9);
+  EXPECT_TRUE(in.camera.T_cell_camera.isApprox(f.T_cell_camera));
+}
+
+TEST(EvalStatic, ShortRunShapeBoundsAndDeterminism) {
+  const EvalCell cell = testCell();
+  StaticOptions o;
+  o.visibilities = {0.6};
+  o.trials = 1;
+  o.duration = 0.5;  // 15 frames
+  o.seed = 7;
+  const std::vector<EvalPart> parts{defaultPart("cube")};
+  const StaticResult r = runStatic(cell, parts, allMethods(), o);
+  ASSERT_FALSE(r.interrupted);
+  ASSERT_EQ(r.rows.size(), 3u);
+  const Json doc = Json::parse(toJson(r, o).dump());
+  EXPECT_EQ(doc.at("experiment").string(), "static");
+  EXPECT_EQ(doc.at("seed").number(), 7);
+  ASSERT_EQ(doc.at("rows").size(), 3u);
+  for (const Json& row : doc.at("rows").elements()) {
+    EXPECT_EQ(row.at("part").string(), "cube");
+    EXPECT_DOUBLE_EQ(row.at("visibility").number(), 0.6);
+    for (const char* key : {"rot_err_deg", "trans_err_cm", "final_rot_err_deg", "final_trans_err_cm", "true_eta",
+                            "tracked_fraction", "track_ms"})
+      expectNumber(row, key);
+    EXPECT_EQ(row.at("trials").number(), 1);
+    EXPECT_EQ(row.at("frames_per_trial").number(), 15);
+    // The set visibility is the simulator's Eq. 2 eta.
+    EXPECT_NEAR(row.at("true_eta").number(), 0.6, 0.02);
+  }
+  const Json* cu = findRow(doc, "cu");
+  ASSERT_NE(cu, nullptr);
+  // Generous bounds: the initial error is at most 3 deg / 0.5 cm; CU-ICP must not make it much worse.
+  EXPECT_LT(cu->at("rot_err_deg").number(), 4.0);
+  EXPECT_LT(cu->at("trans_err_cm").number(), 0.6);
+  EXPECT_LT(cu->at("final_rot_err_deg").number(), 3.0);
+  EXPECT_LT(cu->at("final_trans_err_cm").number(), 0.4);
+  EXPECT_GT(cu->at("tracked_fraction").number(), 0.5);
+
+  // Same seed, same figures (CU only: the methods do not influence each other).
+  const StaticResult again = runStatic(cell, parts, {tracker::Method::kCu}, o);
+  ASSERT_EQ(again.rows.size(), 1u);
+  EXPECT_EQ(again.rows[0].rot_err_deg, r.rows[0].rot_err_deg);
+  EXPECT_EQ(again.rows[0].trans_err_cm, r.rows[0].trans_err_cm);
+}
+
+TEST(EvalStatic, StopsCleanlyWithPartialResults) {
+  const EvalCell cell = testCell();
+  StaticOptions o;
+  o.visibilities = {0.8, 1.0};
+  o.trials = 1;
+  o.duration = 0.2;  // 6 frames per trial
+  int frames = 0;
+  RunControl control;
+  control.stop = [&] { return frames >= 8; };  // during the second visibility
+  control.progress = [&](double done, double total, const std::string&) {
+    frames = static_cast<int>(done);
+    EXPECT_LE(done, total);
+  };
+  const StaticResult r = runStatic(cell, {defaultPart("cube")}, {tracker::Method::kCu}, o, control);
+  EXPECT_TRUE(r.interrupted);
+  ASSERT_EQ(r.rows.size(), 1u);  // the finished visibility only
+  EXPECT_DOUBLE_EQ(r.rows[0].visibility, 0.8);
+  EXPECT_TRUE(Json::parse(toJson(r, o).dump()).at("interrupted").boolean());
+}
+
+TEST(EvalSpeed, ShortRunShapeAndBounds) {
+  const EvalCell cell = testCell();
+  SpeedOptions o;
+  o.visibilities = {0.8};
+  o.trials = 1;
+  o.linear_travel = 0.02;  // 2 cm at 1 cm/s: 60 frames
+  o.linear_factors = {2, 4};
+  o.turntable_travel_deg = 12;  // 12 deg at 6 deg/s: 60 frames
+  o.turntable_factors = {2, 4};
+  o.seed = 3;
+  const SpeedResult r = runSpeed(cell, {defaultPart("cube")}, allMethods(), o);
+  ASSERT_FALSE(r.interrupted);
+  ASSERT_EQ(r.rows.size(), 3u);
+  const Json doc = Json::parse(toJson(r, o).dump());
+  EXPECT_EQ(doc.at("experiment").string(), "speed");
+  for (const Json& row : doc.at("rows").elements()) {
+    for (const char* key : {"max_trans_speed_cm_s", "max_rot_speed_deg_s", "true_eta_start"}) expectNumber(row, key);
+    EXPECT_GE(row.at("max_trans_speed_cm_s").number(), 0);
+    EXPECT_LE(row.at("max_trans_speed_cm_s").number(), 4.0 + 1e-9);
+    EXPECT_LE(row.at("max_rot_speed_deg_s").number(), 24.0 + 1e-9);
+    EXPECT_NEAR(row.at("true_eta_start").number(), 0.8, 0.03);
+  }
+  const Json* cu = findRow(doc, "cu");
+  ASSERT_NE(cu, nullptr);
+  // 2 cm/s is 0.7 mm a frame and 12 deg/s 0.4 deg a frame: CU-ICP must follow both.
+  EXPECT_GE(cu->at("max_trans_speed_cm_s").number(), 2.0);
+  EXPECT_GE(cu->at("max_rot_speed_deg_s").number(), 12.0);
+}
+
+TEST(EvalReport, TablesCarryOursAndThePapers) {
+  Json s = Json::object();
+  s.set("experiment", "static");
+  s.set("interrupted", false);
+  Json opt = Json::object();
+  opt.set("trials", 2);
+  opt.set("duration_s", 2.5);
+  s.set("options", opt);
+  Json rows = Json::array();
+  for (const char* m : {"cu", "continuous", "vanilla"}) {
+    Json r = Json::object();
+    r.set("part", "cube");
+    r.set("method", m);
+    r.set("visibility", 0.4);
+    r.set("rot_err_deg", std::string(m) == "cu" ? 1.234 : 9.0);
+    r.set("trans_err_cm", 0.111);
+    for (const char* k : {"tracked_fraction", "lost_fraction", "template_updates", "template_size", "track_ms",
+                          "init_rot_err_deg", "init_trans_err_cm"})
+      r.set(k, 1.0);
+    rows.push(r);
+  }
+  s.set("rows", rows);
+  ReportInputs in{s, Json(), "not run", "depowder-eval report", "## Notes\n"};
+  const std::string md = reportMarkdown(in, {});
+  EXPECT_NE(md.find("**1.23** (1.69)"), std::string::npos) << md;  // ours, best, then the paper's cube 40 %
+  EXPECT_NE(md.find("9.00 (3.76)"), std::string::npos) << md;      // Continuous ICP, paper 3.76
+  EXPECT_NE(md.find("| CU-ICP (paper) | 100 | 80 | 100 | 100 | 80 | 92 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("## Notes"), std::string::npos);
+  EXPECT_DOUBLE_EQ(paperRotErrDeg("cu", "overall", 0.2), 19.0);
+  EXPECT_DOUBLE_EQ(paperTransErrCm("vanilla", "pipe", 1.0), 0.38);
+  EXPECT_TRUE(std::isnan(paperRotErrDeg("cu", "cube", 0.5)));
+}
+
+TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
+  const std::string bin = std::string(DEPOWDER_BIN_DIR) + "/depowder-eval";
+  const std::string json = ::testing::TempDir() + "eval_cli.json";
+  const std::string cmd = bin + " static --part cube --visibilities 1.0 --trials 1 --duration 0.2 --methods cu " +
+                          "--seed 2 --quiet --json " + json + " > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const Json doc = readJsonFile(json);
+  EXPECT_EQ(doc.at("experiment").string(), "static");
+  ASSERT_EQ(doc.at("rows").size(), 1u);
+  EXPECT_EQ(doc.at("rows").at(0).at("method").string(), "cu");
+  EXPECT_LT(doc.at("rows").at(0).at("trans_err_cm").number(), 0.6);
+  std::remove(json.c_str());
+  for (const std::string bad : {" static --methods icp", " static --part teapot", " static --trials 0",
+                                " static --mesh x.stl", " frobnicate", " moving"}) {
+    const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
+  }
+}
