@@ -273,7 +273,9 @@ TEST(BcapEmulator, SlaveModeMovesTheArmOnTheCycle) {
   for (int i = 0; i < 6; ++i) EXPECT_NEAR(j.q[i], q[i], 1e-12);
   EXPECT_EQ(j.slave_moves, n);
   EXPECT_TRUE(j.slave_mode);
-  EXPECT_NEAR(j.qd[0], 0.001 / 0.008, 0.05);  // rad/s over the last cycle (timing tolerance)
+  // rad/s over the last cycle: 0.001 rad per 8 ms, less if a cycle was missed (never more).
+  EXPECT_LE(j.qd[0], 0.001 / 0.008 + 1e-9);
+  EXPECT_GT(j.qd[0], 0.0);
   // CurJnt reports the same position in degrees.
   const auto cur = c.robotExecute(s.robot, "CurJnt");
   ASSERT_TRUE(cur.ok());
