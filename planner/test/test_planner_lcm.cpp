@@ -1,0 +1,150 @@
+// depowder-planner as a process, over udpm: run by ctest inside a private network namespace
+// (test/netns-run). Poses and progress in, a NOZZLE_PLAN out with the frame's utime and IK
+// solutions; bad messages are counted and change nothing; SIGTERM ends it cleanly.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/nozzle_plan_t.hpp"
+#include "depowder/part_pose_t.hpp"
+#include "depowder/parts.hpp"
+#include "depowder/progress_t.hpp"
+#include "fixtures.hpp"
+
+namespace depowder::planner {
+namespace {
+
+const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+class PlannerProcess : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char dir[] = "/tmp/depowder_planner_lcm_XXXXXX";
+    ASSERT_NE(mkdtemp(dir), nullptr);
+    dir_ = dir;
+    const std::string cell = dir_ + "/cell.yaml";
+    std::ofstream(cell) << "parts:\n  - name: cube\n    mesh: " << DEPOWDER_SOURCE_DIR
+                        << "/config/parts/cube.stl\n    initial_pose: {xyz: [0, 0, 0.03], rpy_deg: [0, 0, 0]}\n"
+                        << "robot:\n  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
+                        << "  tool_offset: {xyz: [0, 0, 0.25], rpy_deg: [0, 0, 0]}\n"
+                        << "planner: {heartbeat_period: 0.2}\n";
+    prefix_ = "PLANNER_TEST_" + std::to_string(getpid()) + "_";
+    child_ = fork();
+    if (child_ == 0) {
+      const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-planner";
+      execl(exe.c_str(), "depowder-planner", "--cell", cell.c_str(), "--url", kUrl, "--prefix", prefix_.c_str(),
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    ASSERT_GT(child_, 0);
+  }
+  void TearDown() override {
+    if (child_ > 0) {
+      kill(child_, SIGKILL);
+      waitpid(child_, nullptr, 0);
+    }
+    std::system(("rm -rf '" + dir_ + "'").c_str());
+  }
+  static bool spinUntil(node::Bus& bus, const std::function<bool()>& done, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (!done() && std::chrono::steady_clock::now() < end) bus.spinOnce(20);
+    return done();
+  }
+
+  std::string dir_, prefix_;
+  pid_t child_ = -1;
+};
+
+part_pose_t poseMsg(std::int64_t utime, const Pose& T) {
+  part_pose_t m{};
+  m.utime = utime;
+  m.part = "cube";
+  m.method = "cu";
+  m.status = part_pose_t::TRACKING;
+  m.T_cell_part = node::toMsg(T);
+  m.template_size = 0;
+  return m;
+}
+
+progress_t progressMsg(std::int64_t utime, const Pose& T, double powder) {
+  progress_t m{};
+  m.utime = utime;
+  m.part = "cube";
+  m.phase = progress_t::PHASE_VACUUM_TRACKED;
+  m.status = progress_t::OK;
+  m.eta = 0.5;
+  m.eta_raw = 0.5;
+  m.h_pow = powder;
+  m.h_max = T.translation().z() + 0.03;
+  m.h_min = T.translation().z() - 0.03;
+  m.T_cell_part = node::toMsg(T);
+  for (const Point& p : test::syntheticContour(transformed(parts::byName("cube"), T), powder))
+    m.contour.push_back({static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())});
+  m.num_contour = static_cast<std::int32_t>(m.contour.size());
+  m.num_band = 0;
+  return m;
+}
+
+TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
+  node::Bus bus(kUrl, prefix_);
+  std::vector<nozzle_plan_t> plans;
+  heartbeat_t last{};
+  int heartbeats = 0;
+  bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) { plans.push_back(m); });
+  bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
+    if (h.process == "depowder-planner") last = h, ++heartbeats;
+  });
+  ASSERT_TRUE(spinUntil(
+      bus, [&] { return heartbeats > 0; }, 10))
+      << "no heartbeat from depowder-planner";
+
+  // 1. Bad input first: a NaN pose and garbage on PROGRESS. Counted; no plan with waypoints.
+  part_pose_t bad = poseMsg(1000, Pose::Identity());
+  bad.T_cell_part.position[2] = std::nan("");
+  bus.publish("PART_POSE", bad);
+  bus.publishRaw("PROGRESS", "not progress", 12);
+
+  // 2. A pose and its progress: a plan stamped with that frame, waypoints with IK solutions.
+  const Pose T = makePoseRpy({0.01, 0.0, 0.03}, 0, 0, 0.2);
+  bus.publish("PART_POSE", poseMsg(2000, T));
+  bus.publish("PROGRESS", progressMsg(2000, T, 0.04));
+  ASSERT_TRUE(spinUntil(
+      bus, [&] { return !plans.empty() && plans.back().num_waypoints > 0; }, 10));
+  const nozzle_plan_t& plan = plans.back();
+  EXPECT_EQ(plan.utime, 2000);
+  EXPECT_EQ(plan.part, "cube");
+  EXPECT_EQ(plan.phase, +progress_t::PHASE_VACUUM_TRACKED);
+  EXPECT_GT(plan.num_waypoints, 20);
+  int vacuum = 0;
+  for (const waypoint_t& w : plan.waypoints) vacuum += w.tool == waypoint_t::TOOL_VACUUM;
+  EXPECT_GT(vacuum, 20);
+  for (std::size_t i = 0; i + 1 < plans.size(); ++i) EXPECT_EQ(plans[i].num_waypoints, 0) << "only holds before";
+
+  const int before = heartbeats;
+  ASSERT_TRUE(spinUntil(
+      bus, [&] { return heartbeats >= before + 2; }, 5));
+  EXPECT_GE(last.decode_errors, 1);
+  EXPECT_GE(last.dropped, 1);
+  EXPECT_EQ(last.state, +heartbeat_t::RUNNING) << last.state_reason;
+
+  // 3. SIGTERM: a clean exit.
+  kill(child_, SIGTERM);
+  int status = 0;
+  ASSERT_EQ(waitpid(child_, &status, 0), child_);
+  child_ = -1;
+  EXPECT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+}  // namespace
+}  // namespace depowder::planner
