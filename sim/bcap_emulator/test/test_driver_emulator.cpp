@@ -173,7 +173,7 @@ TEST(DriverEmulator, RefusesOrClipsUnsafePlans) {
   EXPECT_FALSE(res.accepted);
   EXPECT_NE(res.reason.find("old"), std::string::npos) << res.reason;
   // Too fast (3 m/s): clipped to max_nozzle_speed, and the arm never goes faster.
-  res = rig.driver().submitPlan(linePlan(3, {{0.15, 0.1, 0.05}, {-0.15, -0.1, 0.25}}, 3.0));
+  res = rig.driver().submitPlan(linePlan(3, {{0.05, 0.0, 0.35}, {-0.15, -0.05, 0.3}}, 3.0));
   ASSERT_TRUE(res.accepted);
   EXPECT_EQ(res.status, PlanStatus::Clipped);
   ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
@@ -272,7 +272,7 @@ TEST(DriverEmulator, LostConnectionResumesWithoutAJump) {
   Rig rig;
   ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
   ASSERT_TRUE(
-      rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.1, 0.1, 0.15}, {-0.1, 0.1, 0.15}}, 0.1)).accepted);
+      rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.1, 0.1, 0.2}, {-0.1, 0.1, 0.2}}, 0.25)).accepted);
   ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
   std::this_thread::sleep_for(300ms);
   rig.emu().dropConnections();
@@ -281,7 +281,7 @@ TEST(DriverEmulator, LostConnectionResumesWithoutAJump) {
   ASSERT_TRUE(rig.waitFor([&] { return rig.driver().status().stats.reconnects == 1; }, 2.0))
       << rig.driver().status().reason;
   EXPECT_TRUE(rig.emu().lastHaltTime().has_value());
-  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({-0.1, 0.1, 0.15}); }, 15.0)) << rig.driver().status().reason;
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({-0.1, 0.1, 0.2}); }, 15.0)) << rig.driver().status().reason;
   EXPECT_TRUE(rig.waitMode(DriverMode::Idle, 1.0));
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
   EXPECT_LE(rig.maxStepRatio(), 1.0);
