@@ -18,8 +18,9 @@ struct PclFrame {
   Pose T_cell_part = Pose::Identity();
   bool icp_ran = false;
   bool converged = false;
-  int iterations = 0;  ///< not exposed by pcl::IterativeClosestPoint: 0
-  double ms = 0;       ///< wall time of the whole frame
+  int iterations = 0;      ///< not exposed by pcl::IterativeClosestPoint: 0
+  double ms = 0;           ///< wall time of the whole frame
+  double register_ms = 0;  ///< wall time of the registration step: crop, conversion, kd-tree and ICP
 };
 
 class PclTracker {

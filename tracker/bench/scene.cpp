@@ -93,8 +93,8 @@ std::vector<double> depthImage(const Camera& cam, const std::vector<Placed>& par
 
 std::vector<Camera> defaultCameras() {
   Camera left, right;
-  left.T_cell_camera = lookAt({0.0, -0.45, 0.55}, {0.0, 0.0, 0.05});
-  right.T_cell_camera = lookAt({0.0, 0.45, 0.55}, {0.0, 0.0, 0.05});
+  left.T_cell_camera = lookAt({0.0, -0.35, 0.75}, {0.0, 0.0, 0.05});
+  right.T_cell_camera = lookAt({0.0, 0.35, 0.75}, {0.0, 0.0, 0.05});
   return {left, right};
 }
 

@@ -27,7 +27,7 @@ struct SceneConfig {
   double voxel = 0.005;                ///< m, voxel leaf of the merged cloud (camera proxy: 5 mm)
 };
 
-/// The two cameras of config/cell.yaml: at (0, -+0.45, 0.55) looking at (0, 0, 0.05).
+/// The two cameras of config/cell.yaml: at (0, -+0.35, 0.75) looking at (0, 0, 0.05).
 std::vector<Camera> defaultCameras();
 
 struct Placed {

@@ -43,7 +43,6 @@ std::string validate(const TrackerConfig& c) {
   if (!nonNegative(c.icp.convergence_translation)) return "icp.convergence_translation must be >= 0 m";
   if (!nonNegative(c.icp.convergence_rotation)) return "icp.convergence_rotation must be >= 0 rad";
   if (!nonNegative(c.icp.kernel_scale)) return "icp.kernel_scale must be >= 0 m";
-  if (!nonNegative(c.icp.point_to_point_weight)) return "icp.point_to_point_weight must be >= 0";
   if (!nonNegative(c.icp.motion_prior)) return "icp.motion_prior must be >= 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
   if (c.icp.min_correspondences < 6) return "icp.min_correspondences must be >= 6";

@@ -4,6 +4,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "format.hpp"
 
@@ -60,8 +61,9 @@ double robustWeight(double r, double s2) {
 //   dr/domega = (T^-1 q) x n,  dr/dv = n;
 // the CAD normals stay fixed in the part frame and Gauss-Newton is exact for this cost.
 LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const Cloud& target, const PointGrid& grid,
-                               const Pose& T, double max_distance, double s2, double point_weight) {
+                               const Pose& T, double max_distance, double s2, std::vector<double>& abs_r) {
   LinearSystem sys;
+  abs_r.clear();
   const Pose T_inv = T.inverse(Eigen::Isometry);
   const Eigen::Matrix3d R = T.linear();
   const Eigen::Vector3d t = T.translation();
@@ -80,18 +82,8 @@ LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const 
     const double w = robustWeight(r, s2);
     sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
     sys.g.noalias() += (w * r) * J;
-    if (point_weight > 0) {
-      // A light point-to-point term, e = T^-1 q - p with de/d(omega, v) = [-[q]x, I]: it holds the
-      // directions a plane cannot see (sliding along a face, spinning a flat part on the powder).
-      const Eigen::Vector3d e = q - source[i];
-      Eigen::Matrix<double, 3, 6> Jp;
-      Jp.leftCols<3>() << 0, q.z(), -q.y(), -q.z(), 0, q.x(), q.y(), -q.x(), 0;
-      Jp.rightCols<3>().setIdentity();
-      const double wp = w * point_weight;
-      sys.H.noalias() += wp * Jp.transpose() * Jp;
-      sys.g.noalias() += wp * Jp.transpose() * e;
-    }
     sys.sum_r2 += r * r;
+    abs_r.push_back(std::abs(r));
     sys.sum_w += w;
     ++sys.matches;
   }
@@ -135,7 +127,11 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   if (!(std::isfinite(max_distance) && max_distance > 0)) return invalid("max correspondence distance must be > 0");
   if (config.max_iterations < 1) return invalid("max_iterations must be >= 1");
 
-  const double s2 = config.kernel_scale * config.kernel_scale;
+  // Kernel scale: wide while the template is still far off (a part that moved 5 mm must not be
+  // refused), then 3 robust sigmas of the last round's residuals, never below config.kernel_scale.
+  double scale = config.kernel_scale > 0 ? std::max(config.kernel_scale, max_distance / 3) : 0.0;
+  std::vector<double> abs_r;
+  abs_r.reserve(source.size());
   // Characteristic length of the source: rotations about its frame's origin move points by about this.
   double length2 = 0;
   for (const Point& p : source) length2 += p.squaredNorm();
@@ -148,7 +144,7 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
     // Associate and linearise at the current estimate.
     const LinearSystem sys =
-        buildLinearSystem(source, source_normals, target, grid, T, max_distance, s2, config.point_to_point_weight);
+        buildLinearSystem(source, source_normals, target, grid, T, max_distance, scale * scale, abs_r);
     result.iterations = iteration;
     result.correspondences = sys.matches;
     result.inlier_ratio = static_cast<double>(sys.matches) / static_cast<double>(source.size());
@@ -164,6 +160,10 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
     }
     // Solve in the directions the matches constrain; then a trust region: no step may move
     // the template further than the association can follow.
+    if (config.kernel_scale > 0 && !abs_r.empty()) {
+      std::nth_element(abs_r.begin(), abs_r.begin() + abs_r.size() / 2, abs_r.end());
+      scale = std::max(config.kernel_scale, 3 * 1.4826 * abs_r[abs_r.size() / 2]);
+    }
     // Motion prior: mu |e + delta|_W^2, e the deviation of the estimate from the guess so far,
     // W weighting rotations by length^2 so both parts are displacements, mu worth a fraction of
     // the matches. It holds what the matches cannot see (a tube's spin, a plane's slide) at the
@@ -181,9 +181,8 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
     }
     H.diagonal().array() += 1e-12 * std::max(H.diagonal().maxCoeff(), 1e-300);  // numerical floor
     Vector6d delta = -H.ldlt().solve(g);
-    const double scale = std::max(
+    delta /= std::max(
         {1.0, delta.tail<3>().norm() / (0.5 * max_distance), delta.head<3>().norm() / config.max_step_rotation});
-    delta /= scale;
     if (!delta.allFinite()) {
       result.status = RegistrationStatus::kDegenerate;
       result.reason = "the ICP normal equations are singular";

@@ -1,8 +1,10 @@
 #include "depowder/tracker/template.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
-#include <unordered_set>
+#include <unordered_map>
+#include <utility>
 
 namespace depowder::tracker {
 
@@ -20,16 +22,22 @@ Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const P
 
 Indices thinned(const Cloud& cad_points, const Indices& indices, double leaf) {
   if (!(leaf > 0)) return indices;
-  std::unordered_set<std::uint64_t> seen;
-  seen.reserve(indices.size());
-  Indices out;
+  // First sample per voxel, then sorted by voxel (z, y, x): consecutive ICP queries then fall
+  // in neighbouring grid cells, which keeps the association cache-friendly.
+  std::unordered_map<std::uint64_t, std::uint32_t> first;
+  first.reserve(indices.size());
   for (const std::uint32_t i : indices) {
     const Eigen::Array3i c = (cad_points[i] / leaf).array().floor().cast<int>();
-    const std::uint64_t key = (static_cast<std::uint64_t>(c.x() & 0x1FFFFF) << 42) |
-                              (static_cast<std::uint64_t>(c.y() & 0x1FFFFF) << 21) |
-                              static_cast<std::uint64_t>(c.z() & 0x1FFFFF);
-    if (seen.insert(key).second) out.push_back(i);
+    const std::uint64_t key = (static_cast<std::uint64_t>((c.z() + 0x100000) & 0x1FFFFF) << 42) |
+                              (static_cast<std::uint64_t>((c.y() + 0x100000) & 0x1FFFFF) << 21) |
+                              static_cast<std::uint64_t>((c.x() + 0x100000) & 0x1FFFFF);
+    first.try_emplace(key, i);
   }
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> sorted(first.begin(), first.end());
+  std::sort(sorted.begin(), sorted.end());
+  Indices out;
+  out.reserve(sorted.size());
+  for (const auto& kv : sorted) out.push_back(kv.second);
   return out;
 }
 

@@ -30,9 +30,9 @@ struct IcpConfig {
   double max_correspondence_distance = 0;  ///< m; 0 = the part's xi (as the authors)
   double convergence_translation = 2e-4;   ///< m: stop when an update moves less than this...
   double convergence_rotation = 2e-3;      ///< rad: ...and rotates less than this (0.11 deg)
-  double kernel_scale = 0.002;       ///< m, Geman-McClure scale on the point-to-plane residual; 0 = plain least squares
-  double point_to_point_weight = 0;  ///< weight of a point-to-point term next to point-to-plane; 0 = none
-  double motion_prior = 0.1;         ///< weight of a prior towards the previous pose, as a fraction of the matches; it
+  double kernel_scale =
+      0.002;                  ///< m, least Geman-McClure scale (it adapts: 3 robust sigmas of the residuals); 0 = none
+  double motion_prior = 0.1;  ///< weight of a prior towards the previous pose, as a fraction of the matches; it
                               ///< holds what the scan cannot see (a tube's spin); 0 = none (one-off registration)
   double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
   int min_correspondences = 12;    ///< fewer: the fit is refused (6 unknowns; keep well above)

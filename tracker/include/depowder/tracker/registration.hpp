@@ -35,7 +35,8 @@ struct RegistrationResult {
 /// `grid` was built from). Association: each source point, moved by the current estimate,
 /// takes its nearest target point within `max_distance` (m; the grid's cell should be at
 /// least that). Residual: distance of that target point to the source point's tangent
-/// plane, weighted by a Geman-McClure kernel of scale config.kernel_scale. Gauss-Newton
+/// plane, weighted by a Geman-McClure kernel whose scale adapts to the residuals (3 robust
+/// sigmas, never below config.kernel_scale). Gauss-Newton
 /// on SE(3), starting at `guess`, with a motion prior towards the guess worth
 /// config.motion_prior of the matches (0 for a one-off registration). config.max_correspondence_distance
 /// is not read here.

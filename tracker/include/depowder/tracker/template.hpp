@@ -18,8 +18,8 @@ using Indices = std::vector<std::uint32_t>;
 /// cell of at least xi.
 Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const PointGrid& scan_grid, double xi);
 
-/// One index per occupied `leaf` voxel (part frame), in the order of `indices` (the first
-/// sample seen in a voxel is kept). leaf <= 0 returns `indices` unchanged.
+/// One index per occupied `leaf` voxel (part frame): the first of `indices` in that voxel,
+/// ordered by voxel (z, y, x) for locality. leaf <= 0 returns `indices` unchanged.
 Indices thinned(const Cloud& cad_points, const Indices& indices, double leaf);
 
 /// All indices 0..n-1 (Vanilla ICP's template: the whole CAD model, Strategy 1).

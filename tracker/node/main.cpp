@@ -1,0 +1,116 @@
+// depowder-tracker: POINTS -> PART_POSE for every part of the cell (CU-ICP, paper Alg. 1, or a
+// baseline), with HEARTBEAT. The logic is in tracker_node.hpp; this file is the bus.
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/node/bus.hpp"
+#include "depowder/node/cell.hpp"
+#include "depowder/node/heartbeat.hpp"
+#include "depowder/node/shutdown.hpp"
+#include "depowder/point_cloud_t.hpp"
+#include "tracker_node.hpp"
+
+using namespace depowder;
+
+namespace {
+
+int usage(const std::string& error = "") {
+  if (!error.empty()) std::cerr << "depowder-tracker: " << error << "\n";
+  (error.empty() ? std::cout : std::cerr)
+      << "usage: depowder-tracker [--config FILE] [--method cu|continuous|vanilla] [--url URL] [--prefix P]\n"
+         "  Subscribes POINTS; publishes PART_POSE (part_pose_t) for every part of the cell with each\n"
+         "  frame's utime, and HEARTBEAT with per-frame timing. If it falls behind, it tracks the newest\n"
+         "  frame and counts the skipped ones as dropped.\n"
+         "  --config FILE  cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); section `tracker`\n"
+         "                 (--cell FILE is the same)\n"
+         "  --method M     cu (CU-ICP, default), continuous or vanilla: overrides tracker.method\n"
+         "  --url URL      LCM URL (overrides lcm.url)\n"
+         "  --prefix P     channel prefix (overrides lcm.prefix)\n";
+  return error.empty() ? 0 : 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string cell_path = node::defaultCellPath(), url, prefix, method;
+  bool have_url = false, have_prefix = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") return usage();
+    if (a != "--config" && a != "--cell" && a != "--method" && a != "--url" && a != "--prefix")
+      return usage("unknown option " + a);
+    if (i + 1 >= argc) return usage("missing value after " + a);
+    const std::string v = argv[++i];
+    if (a == "--config" || a == "--cell") cell_path = v;
+    if (a == "--method") method = v;
+    if (a == "--url") url = v, have_url = true;
+    if (a == "--prefix") prefix = v, have_prefix = true;
+  }
+  if (!method.empty() && !tracker::methodFromString(method))
+    return usage("--method must be cu, continuous or vanilla, not '" + method + "'");
+
+  try {
+    // 1. Configuration and the parts' meshes: an error here is a configuration error.
+    const node::CellConfig cell = node::loadCell(cell_path);
+    tracker::TrackerNodeOptions options = tracker::readTrackerOptions(cell);
+    if (!method.empty()) options.tracker.method = *tracker::methodFromString(method);
+    tracker::TrackerNode logic(cell, options);
+
+    // 2. Bus and heartbeat. The handler only keeps the newest frame; the loop tracks it.
+    node::installShutdownHandlers();
+    node::Bus bus(have_url ? url : cell.lcm.url, have_prefix ? prefix : cell.lcm.prefix);
+    node::Heartbeat heartbeat(bus, "depowder-tracker", options.heartbeat_period);
+    std::optional<point_cloud_t> pending;
+    std::int64_t skipped = 0;
+    bus.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& msg, const std::string&) {
+      if (pending) {
+        ++skipped;  // a newer frame arrived before this one was tracked: drop the stale one
+        heartbeat.addDropped();
+      }
+      pending = msg;
+    });
+    heartbeat.setState(heartbeat_t::RUNNING);
+    heartbeat.publish();
+    std::cout << "depowder-tracker: " << logic.partNames().size() << " parts, method " << logic.method() << ", "
+              << logic.trackers().threads() << " threads, cell " << cell.file << std::endl;
+
+    // 3. Main loop: take every waiting message, track the newest frame, publish.
+    while (!node::shutdownRequested()) {
+      try {
+        bus.spinOnce(pending ? 0 : 20);
+        while (bus.spinOnce(0) > 0) {
+        }
+      } catch (const node::BusError&) {
+        if (node::shutdownRequested()) break;  // the signal interrupted LCM's wait: not an error
+        throw;
+      }
+      if (pending) {
+        const point_cloud_t frame = std::move(*pending);
+        pending.reset();
+        for (const part_pose_t& m : logic.onPoints(frame)) bus.publish("PART_POSE", m);
+      }
+      for (const std::string& e : bus.takeErrors()) std::cerr << "depowder-tracker: " << e << std::endl;
+
+      const auto& s = logic.stats();
+      heartbeat.setStat("frames_in", static_cast<double>(s.frames));
+      heartbeat.setStat("frames_invalid", static_cast<double>(s.invalid_frames));
+      heartbeat.setStat("frames_skipped", static_cast<double>(skipped));
+      heartbeat.setStat("frame_ms_p50", s.frame_ms_p50);
+      heartbeat.setStat("frame_ms_p90", s.frame_ms_p90);
+      heartbeat.setStat("frame_ms_max", s.frame_ms_max);
+      if (!s.last_problem.empty())
+        heartbeat.setState(heartbeat_t::DEGRADED, s.last_problem);
+      else
+        heartbeat.setState(heartbeat_t::RUNNING);
+      heartbeat.tick();
+    }
+    heartbeat.setState(heartbeat_t::STOPPING);
+    heartbeat.publish();
+  } catch (const std::exception& e) {
+    std::cerr << "depowder-tracker: " << e.what() << std::endl;
+    return 1;
+  }
+  return 0;
+}

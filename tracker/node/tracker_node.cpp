@@ -1,0 +1,164 @@
+#include "tracker_node.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "depowder/mesh.hpp"
+#include "depowder/node/convert.hpp"
+#include "progress_node.hpp"
+
+namespace depowder::tracker {
+
+TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
+  TrackerNodeOptions o;
+  TrackerConfig& c = o.tracker;
+  const node::YamlReader r = cell.root.child("tracker");
+  std::string method = toString(c.method);
+  r.readChoice("method", method, {"cu", "continuous", "vanilla"});
+  c.method = *methodFromString(method);
+  r.read("delta1_deg", c.delta1_deg, 1e-6, 180.0);
+  r.read("delta2", c.delta2, 1e-6, 10.0);
+  r.read("delta3", c.delta3, 1e-6, 1.0);
+  r.read("cad_spacing", c.cad_spacing, 0.0005, 0.02);
+  r.read("icp_leaf", c.icp_leaf, 0.0, 0.05);
+  r.read("crop_margin", c.crop_margin, 0.0, 0.5);
+  r.read("min_scan_points", c.min_scan_points, 1, 1000000);
+  r.read("cull_with_cameras", o.cull_with_cameras);
+  r.read("threads", o.threads, 0, 256);
+  r.read("template_leaf", o.template_leaf, 0.0, 0.05);
+  r.read("template_resolution", o.template_resolution, 1e-5, 0.01);
+  r.read("heartbeat_period", o.heartbeat_period, 0.05, 10.0);
+  const node::YamlReader icp = r.child("icp");
+  icp.read("max_iterations", c.icp.max_iterations, 1, 1000);
+  icp.read("max_correspondence_distance", c.icp.max_correspondence_distance, 0.0, 0.5);
+  icp.read("convergence_translation", c.icp.convergence_translation, 0.0, 0.01);
+  icp.read("convergence_rotation", c.icp.convergence_rotation, 0.0, 0.1);
+  icp.read("kernel_scale", c.icp.kernel_scale, 0.0, 0.1);
+  icp.read("motion_prior", c.icp.motion_prior, 0.0, 100.0);
+  icp.read("max_step_rotation", c.icp.max_step_rotation, 1e-4, 3.2);
+  icp.read("min_correspondences", c.icp.min_correspondences, 6, 1000000);
+  icp.finish();
+  const node::YamlReader st = r.child("status");
+  st.read("tracking_min_inlier_ratio", c.status.tracking_min_inlier_ratio, 0.0, 1.0);
+  st.read("tracking_max_rms", c.status.tracking_max_rms, 1e-6, 0.1);
+  st.read("lost_min_inlier_ratio", c.status.lost_min_inlier_ratio, 0.0, 1.0);
+  st.read("lost_max_rms", c.status.lost_max_rms, 1e-6, 0.1);
+  st.finish();
+  r.finish();
+  if (const std::string why = validate(c); !why.empty()) throw node::ConfigError(cell.file + ": tracker: " + why);
+
+  // Phase 1 and Eq. 2 exactly as depowder-progress has them.
+  c.progress = progress::readProgressOptions(cell).estimator;
+  c.eta1 = c.progress.eta1;
+  if (o.cull_with_cameras)
+    for (const node::CameraConfig& cam : cell.cameras) c.viewpoints.push_back(cam.T_cell_camera.translation());
+  return o;
+}
+
+TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options) : options_(options) {
+  std::vector<PartTracker> parts;
+  for (const node::PartConfig& p : cell.parts)
+    parts.emplace_back(p.name, loadMesh(p.mesh, p.mesh_scale), p.T_cell_part_init, p.xi, options_.tracker);
+  trackers_ = std::make_unique<MultiTracker>(std::move(parts), options_.threads);
+  published_version_.assign(trackers_->size(), -1);
+  encoded_.resize(trackers_->size());
+}
+
+std::vector<std::string> TrackerNode::partNames() const {
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < trackers_->size(); ++i) names.push_back(trackers_->part(i).name());
+  return names;
+}
+
+part_pose_t TrackerNode::toMessage(std::int64_t utime, std::size_t i, const TrackResult& r) {
+  const PartTracker& part = trackers_->part(i);
+  part_pose_t m;
+  m.utime = utime;
+  m.part = part.name();
+  m.method = toString(part.method());
+  switch (r.status) {
+    case TrackStatus::kWaiting:
+      m.status = part_pose_t::WAITING;
+      break;
+    case TrackStatus::kTracking:
+      m.status = part_pose_t::TRACKING;
+      break;
+    case TrackStatus::kDegraded:
+      m.status = part_pose_t::DEGRADED;
+      break;
+    case TrackStatus::kLost:
+      m.status = part_pose_t::LOST;
+      break;
+  }
+  m.status_reason = r.reason;
+  m.T_cell_part = node::toMsg(r.T_cell_part);  // PartTracker never reports an invalid pose
+  m.eta = r.eta;
+  m.fitness = r.fitness;
+  m.inlier_ratio = r.inlier_ratio;
+  m.iterations = r.iterations;
+  m.compute_ms = static_cast<float>(r.timing.total_ms);
+  m.template_updated = r.template_updated;
+  m.template_version = part.templateVersion();
+  m.template_resolution = static_cast<float>(options_.template_resolution);
+  // The template in the part frame, quantised (re-encoded only when it changed).
+  if (published_version_[i] != part.templateVersion()) {
+    auto& out = encoded_[i];
+    out.clear();
+    const Indices shown = thinned(part.cad().points, part.templateIndices(), options_.template_leaf);
+    const double limit = std::numeric_limits<std::int16_t>::max();
+    for (const std::uint32_t k : shown) {
+      const Eigen::Vector3d q = (part.cad().points[k] / options_.template_resolution).array().round();
+      if (q.cwiseAbs().maxCoeff() > limit) continue;  // beyond +-16 m at 0.5 mm: not a part
+      out.push_back(
+          {static_cast<std::int16_t>(q.x()), static_cast<std::int16_t>(q.y()), static_cast<std::int16_t>(q.z())});
+    }
+    published_version_[i] = part.templateVersion();
+  }
+  m.template_xyz = encoded_[i];
+  m.template_size = static_cast<std::int32_t>(m.template_xyz.size());
+  return m;
+}
+
+std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ++stats_.frames;
+  std::vector<part_pose_t> out;
+  std::string why;
+  const std::optional<Cloud> cloud = node::decodeCloud(msg, &why);
+  if (!cloud) {
+    // Nothing to track on: every part keeps its last pose and says why.
+    ++stats_.invalid_frames;
+    for (std::size_t i = 0; i < trackers_->size(); ++i) {
+      const PartTracker& part = trackers_->part(i);
+      TrackResult r;
+      r.status = part.started() ? TrackStatus::kLost : TrackStatus::kWaiting;
+      r.reason = "bad POINTS frame: " + why + (part.started() ? "; last good pose kept" : "; initial pose kept");
+      r.T_cell_part = part.pose();
+      out.push_back(toMessage(msg.utime, i, r));
+    }
+    stats_.last_problem = "POINTS: " + why;
+  } else {
+    const std::vector<TrackResult> results = trackers_->track(*cloud);
+    stats_.last_problem.clear();
+    for (std::size_t i = 0; i < results.size(); ++i) {
+      out.push_back(toMessage(msg.utime, i, results[i]));
+      if (results[i].status != TrackStatus::kTracking && stats_.last_problem.empty())
+        stats_.last_problem = trackers_->part(i).name() + ": " + results[i].reason;
+    }
+    if (cloud->empty()) ++stats_.invalid_frames;
+  }
+  // Per-frame timing over the last 100 frames, for the heartbeat.
+  recent_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  if (recent_ms_.size() > 100) recent_ms_.pop_front();
+  std::vector<double> sorted(recent_ms_.begin(), recent_ms_.end());
+  std::sort(sorted.begin(), sorted.end());
+  stats_.frame_ms_p50 = sorted[sorted.size() / 2];
+  stats_.frame_ms_p90 = sorted[std::min(sorted.size() - 1, sorted.size() * 9 / 10)];
+  stats_.frame_ms_max = sorted.back();
+  return out;
+}
+
+}  // namespace depowder::tracker

@@ -1,0 +1,68 @@
+// depowder-tracker's logic, without the bus: options from the cell YAML, and a TrackerNode
+// that turns each POINTS message into one PART_POSE per part (with the frame's utime).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "depowder/node/cell.hpp"
+#include "depowder/part_pose_t.hpp"
+#include "depowder/point_cloud_t.hpp"
+#include "depowder/tracker/multi_tracker.hpp"
+
+namespace depowder::tracker {
+
+struct TrackerNodeOptions {
+  TrackerConfig tracker;                ///< eta1 and the Eq. 2 settings come from the cell's progress section
+  bool cull_with_cameras = true;        ///< tracker.viewpoints = the cell cameras' positions (back-face culling)
+  int threads = 0;                      ///< worker threads; 0: one per part, bounded by the cores
+  double template_leaf = 0.005;         ///< m; the published template is thinned to this voxel (0: every sample)
+  double template_resolution = 0.0005;  ///< m per count of part_pose_t.template_xyz
+  double heartbeat_period = 0.5;        ///< s
+};
+
+/// Reads the `tracker` section of a cell (keys mirror the fields; unknown keys and out-of-range
+/// values throw node::ConfigError naming the file and key). eta1 and the progress estimator
+/// settings are the progress section's, so the tracker's Alg. 1 line 11 runs the same Eq. 2
+/// as depowder-progress.
+TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell);
+
+class TrackerNode {
+ public:
+  /// Loads each part's mesh (throws MeshError naming the file, std::invalid_argument naming the
+  /// part for a mesh with no triangles).
+  TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options);
+
+  /// One POINTS message: one part_pose_t per part, in the cell's part order. A message that
+  /// does not decode gives every part its last pose with the reason (never throws).
+  std::vector<part_pose_t> onPoints(const point_cloud_t& msg);
+
+  struct Stats {
+    std::int64_t frames = 0;          ///< POINTS messages handled
+    std::int64_t invalid_frames = 0;  ///< of them undecodable, empty or with NaN
+    double frame_ms_p50 = 0;          ///< wall time of onPoints over the last 100 frames
+    double frame_ms_p90 = 0;
+    double frame_ms_max = 0;
+    std::string last_problem;  ///< the last non-tracking reason ("part: reason"), "" if all track
+  };
+  const Stats& stats() const { return stats_; }
+  std::vector<std::string> partNames() const;
+  const MultiTracker& trackers() const { return *trackers_; }
+  const char* method() const { return toString(options_.tracker.method); }
+
+ private:
+  part_pose_t toMessage(std::int64_t utime, std::size_t part, const TrackResult& r);
+
+  TrackerNodeOptions options_;
+  std::unique_ptr<MultiTracker> trackers_;
+  std::vector<int> published_version_;                           ///< template version last encoded, per part
+  std::vector<std::vector<std::vector<std::int16_t>>> encoded_;  ///< its quantised points
+  std::deque<double> recent_ms_;
+  Stats stats_;
+};
+
+}  // namespace depowder::tracker
