@@ -12,7 +12,10 @@
 #include "depowder/node/convert.hpp"
 #include "depowder/node/heartbeat.hpp"
 #include "depowder/node/shutdown.hpp"
+#include "depowder/robot/kinematics.hpp"
 #include "depowder/sim_truth_t.hpp"
+#include "driver_config.hpp"
+#include "emulated_arm.hpp"
 #include "setup.hpp"
 
 using namespace depowder;
@@ -23,13 +26,15 @@ namespace {
 int usage(const std::string& error = "") {
   if (!error.empty()) std::cerr << "depowder-sim: " << error << "\n";
   std::cerr << "usage: depowder-sim [--config FILE] [--scenario FILE] [--seed N] [--duration S] [--realtime|--fast]\n"
-               "                    [--url URL] [--prefix P]\n"
+               "                    [--arm script|emulator] [--url URL] [--prefix P]\n"
                "  The simulated cell: publishes DEPTH_<CAM> (depth_image_t) per camera at its rate, SIM_TRUTH\n"
                "  (sim_truth_t) and HEARTBEAT.\n"
                "  --config FILE    cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); --cell is the same\n"
                "  --scenario FILE  a full cell file used instead, or a file with only a `sim:` section that\n"
                "                   replaces the cell's (config/scenarios/)\n"
                "  --seed N         noise seed (overrides sim.seed)\n"
+               "  --arm A          what moves the nozzle (overrides sim.arm): the scripted nozzle (sim.script), or\n"
+               "                   the arm of the b-CAP controller emulator that depowder-driver commands\n"
                "  --duration S     stop after S simulated seconds (default: run until SIGINT/SIGTERM)\n"
                "  --realtime       pace simulated time to the wall clock; utime = wall clock (default)\n"
                "  --fast           as fast as possible; utime = simulated time (microseconds from 0)\n"
@@ -84,7 +89,7 @@ sim_truth_t toMsg(const Truth& t, std::int64_t utime) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config_path = node::defaultCellPath(), scenario_path, url, prefix;
+  std::string config_path = node::defaultCellPath(), scenario_path, url, prefix, arm_choice;
   bool have_url = false, have_prefix = false, fast = false;
   long long seed = -1;
   double duration = 0;
@@ -95,14 +100,18 @@ int main(int argc, char** argv) {
       fast = a == "--fast";
       continue;
     }
-    if (a != "--config" && a != "--cell" && a != "--scenario" && a != "--seed" && a != "--duration" && a != "--url" &&
-        a != "--prefix")
+    if (a != "--config" && a != "--cell" && a != "--arm" && a != "--scenario" && a != "--seed" && a != "--duration" &&
+        a != "--url" && a != "--prefix")
       return usage("unknown option " + a);
     if (i + 1 >= argc) return usage("missing value after " + a);
     const std::string v = argv[++i];
     try {
       if (a == "--config" || a == "--cell") config_path = v;
       if (a == "--scenario") scenario_path = v;
+      if (a == "--arm") {
+        if (v != "script" && v != "emulator") return usage("--arm must be script or emulator");
+        arm_choice = v;
+      }
       if (a == "--url") url = v, have_url = true;
       if (a == "--prefix") prefix = v, have_prefix = true;
       std::size_t used = 0;
@@ -120,8 +129,28 @@ int main(int argc, char** argv) {
     SimSetup setup = loadSimSetup(config_path, scenario_path);
     if (seed >= 0) setup.seed = static_cast<std::uint32_t>(seed);
     std::unique_ptr<World> world = makeWorld(setup);
+    if (!arm_choice.empty()) setup.arm = arm_choice;
     NozzleScript script(setup.script, setup.script_loop);
-    ArmSource* arm = &script;  // the b-CAP controller emulator replaces this once it exists
+    ArmSource* arm = &script;
+    // With `arm: emulator` the nozzle is the arm's: depowder-driver moves it over b-CAP.
+    std::unique_ptr<BcapEmulator> emulator;
+    std::unique_ptr<EmulatedArm> emulated;
+    if (setup.arm == "emulator") {
+      const robot::RobotSection robot_cfg = robot::readRobotSection(node::loadCell(setup.cell_file));
+      const robot::SessionConfig& session = robot_cfg.driver.session;
+      emulator =
+          std::make_unique<BcapEmulator>(emulatorConfig(robot_cfg.driver.arm, session.client.port, setup.emulator_bind,
+                                                        session.vacuum_variable, session.air_variable));
+      std::string error;
+      if (!emulator->start(&error))
+        throw std::runtime_error("b-CAP controller emulator: " + error + " (sim.emulator_bind " + setup.emulator_bind +
+                                 ", robot.controller.port " + std::to_string(session.client.port) + ")");
+      emulated = std::make_unique<EmulatedArm>(*emulator, robot_cfg.driver.arm);
+      world->setArmLinks(emulated->linkMeshes());
+      arm = emulated.get();
+      std::cout << "depowder-sim: b-CAP controller emulator on " << setup.emulator_bind << ":" << emulator->port()
+                << (fast ? " (the arm moves in wall-clock time even with --fast)" : "") << std::endl;
+    }
 
     // 2. Bus and heartbeat.
     node::installShutdownHandlers();

@@ -133,6 +133,9 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
   for (auto& cam : out.cameras) cam.noise.flying_edge = flying_edge;
   cr.finish();
 
+  s.readChoice("arm", out.arm, {"script", "emulator"});
+  s.read("emulator_bind", out.emulator_bind);
+
   const YamlReader sr = s.child("script");
   sr.read("loop", out.script_loop);
   for (const YamlReader& item : sr.items("segments")) {

@@ -32,6 +32,8 @@ struct SimSetup {
   Pose T_nozzle_mesh = Pose::Identity();
   std::vector<ScriptSegment> script;
   bool script_loop = true;
+  std::string arm = "script";               ///< what moves the nozzle: "script" or "emulator" (the b-CAP controller)
+  std::string emulator_bind = "127.0.0.1";  ///< address the b-CAP emulator listens on (0.0.0.0: every interface)
 };
 
 /// Reads `cell_path`; `scenario_path` (optional) is either a full cell file used instead, or a file
