@@ -44,6 +44,7 @@ const char* kUsage =
     "  --out DIR              report: where results.md and the PNGs go (default docs)\n"
     "  --from FILE            report: rebuild DIR/results.md from a JSON file that report --json wrote\n"
     "  --notes FILE           report: markdown appended verbatim (default tools/eval/report_notes.md)\n"
+    "  --no-nozzle            static: no nozzle in the cell (what its occlusion and interference cost)\n"
     "  --quiet                no progress bar\n";
 
 int usage(const std::string& error = "") {
@@ -80,7 +81,7 @@ struct Args {
   std::uint32_t seed = 1;
   std::vector<double> visibilities;
   double duration = 0;
-  bool quiet = false;
+  bool quiet = false, no_nozzle = false;
   std::string command_line;  ///< as typed, for the report
 };
 
@@ -93,6 +94,10 @@ Args parse(int argc, char** argv) {
     a.command_line += " " + f;
     if (f == "--quiet") {
       a.quiet = true;
+      continue;
+    }
+    if (f == "--no-nozzle") {
+      a.no_nozzle = true;
       continue;
     }
     if (i + 1 >= argc) throw std::invalid_argument("missing value after " + f);
@@ -205,6 +210,7 @@ StaticOptions staticOptions(const Args& a) {
   if (a.trials > 0) o.trials = a.trials;
   if (!a.visibilities.empty()) o.visibilities = a.visibilities;
   if (a.duration > 0) o.duration = a.duration;
+  o.nozzle = !a.no_nozzle;
   o.seed = a.seed;
   return o;
 }
@@ -248,12 +254,12 @@ std::string readText(const std::string& path) {
 }
 
 void printStatic(const StaticResult& r) {
-  std::printf("%-10s %-11s %5s %9s %9s %8s %8s %7s\n", "part", "method", "vis", "R_err deg", "t_err cm", "tracked",
-              "updates", "ms");
+  std::printf("%-10s %-11s %5s %9s %9s %9s %8s %8s %7s\n", "part", "method", "vis", "R_err deg", "tilt deg", "t_err cm",
+              "tracked", "updates", "ms");
   for (const StaticRow& row : r.rows)
-    std::printf("%-10s %-11s %4.0f%% %9.2f %9.3f %8.2f %8.1f %7.2f\n", row.part.c_str(), row.method.c_str(),
-                row.visibility * 100, row.rot_err_deg, row.trans_err_cm, row.tracked_fraction, row.template_updates,
-                row.track_ms);
+    std::printf("%-10s %-11s %4.0f%% %9.2f %9.2f %9.3f %8.2f %8.1f %7.2f\n", row.part.c_str(), row.method.c_str(),
+                row.visibility * 100, row.rot_err_deg, row.tilt_err_deg, row.trans_err_cm, row.tracked_fraction,
+                row.template_updates, row.track_ms);
 }
 
 void printSpeed(const SpeedResult& r) {

@@ -1,5 +1,6 @@
 #include "depowder/eval/scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "depowder/parts.hpp"
@@ -86,6 +87,11 @@ std::uint32_t trialSeed(std::uint32_t seed, std::uint64_t a, std::uint64_t b, st
 PoseError poseError(const Pose& estimate, const Pose& truth) {
   return {rotationAngle(estimate.rotation(), truth.rotation()) * 180.0 / M_PI,
           translationDistance(estimate, truth) * 100.0};
+}
+
+double tiltError(const Pose& estimate, const Pose& truth) {
+  const double c = estimate.linear().col(2).dot(truth.linear().col(2));
+  return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / M_PI;
 }
 
 }  // namespace depowder::eval

@@ -30,8 +30,9 @@ Pose poseAt(Motion motion, const Pose& T0, const Eigen::Vector3d& centre, double
 }
 
 struct Outcome {
-  std::vector<int> success;  ///< per method, per factor: 1 tracked to the end, 0 lost
-  double eta_start = 0;      ///< simulator truth after digging, before the motion
+  std::vector<int> success;      ///< per method, per factor: 1 tracked to the end, 0 lost
+  std::vector<PoseError> final;  ///< per method, per factor: the error at the last frame
+  double eta_start = 0;          ///< simulator truth after digging, before the motion
   double eta_end = 0;
   bool interrupted = false;
 };
@@ -68,6 +69,10 @@ Outcome runMotion(Motion motion, const EvalCell& cell, const EvalPart& part,
       return out;
     }
     advanceFrame(world, cell, [&](double t) { world.setPartPose(0, poseAt(motion, T0, centre, base * t)); });
+    // The crater follows the part: without it the powder the moving part leaves behind (the simulator
+    // raises the surface to the part's top where it was) slides into the band and buries it, and the
+    // visibility under test would fall during the run.
+    if (o.follow_crater) world.digToVisibility(0, visibility);
     const Cloud scan = source.capture(world);
     const sim::PartTruth truth = world.partTruth(0);
     for (std::size_t k = 0; k < factors.size(); ++k) {
@@ -84,8 +89,34 @@ Outcome runMotion(Motion motion, const EvalCell& cell, const EvalPart& part,
   for (std::size_t i = 0; i < last.size(); ++i) {
     const PoseError e = poseError(last[i], truth_at_last[i]);
     out.success.push_back(e.rot_deg <= o.success_rot_deg && e.trans_cm <= o.success_trans * 100);
+    out.final.push_back(e);
   }
   return out;
+}
+
+void accumulate(SpeedCurve& curve, const Outcome& out, std::size_t m, std::size_t factors) {
+  curve.success_rate.resize(factors, 0.0);
+  curve.final_rot_err_deg.resize(factors, 0.0);
+  curve.final_trans_err_cm.resize(factors, 0.0);
+  for (std::size_t k = 0; k < factors; ++k) {
+    curve.success_rate[k] += out.success[m * factors + k];
+    curve.final_rot_err_deg[k] += out.final[m * factors + k].rot_deg;
+    curve.final_trans_err_cm[k] += out.final[m * factors + k].trans_cm;
+  }
+}
+
+void finishCurve(SpeedCurve& curve, int trials) {
+  for (auto* v : {&curve.success_rate, &curve.final_rot_err_deg, &curve.final_trans_err_cm})
+    for (double& x : *v) x /= trials;
+}
+
+Json curveJson(const SpeedCurve& c, const std::vector<double>& speeds) {
+  Json j = Json::object();
+  j.set("speeds", Json::arrayOf(speeds));
+  j.set("success_rate", Json::arrayOf(c.success_rate));
+  j.set("final_rot_err_deg", Json::arrayOf(c.final_rot_err_deg));
+  j.set("final_trans_err_cm", Json::arrayOf(c.final_trans_err_cm));
+  return j;
 }
 
 /// The last speed of the increasing list still tracked (0 if the first was not).
@@ -155,6 +186,8 @@ SpeedResult runSpeed(const EvalCell& cell, const std::vector<EvalPart>& parts,
           rows[m].trial_trans_speed_cm_s.push_back(maxTracked(lin.success, m, o.linear_factors, o.linear_base) * 100);
           rows[m].trial_rot_speed_deg_s.push_back(
               maxTracked(rot.success, m, o.turntable_factors, o.turntable_base_deg));
+          accumulate(rows[m].trans_curve, lin, m, o.linear_factors.size());
+          accumulate(rows[m].rot_curve, rot, m, o.turntable_factors.size());
         }
       }
       if (trials_done == 0) return result;
@@ -165,6 +198,8 @@ SpeedResult runSpeed(const EvalCell& cell, const std::vector<EvalPart>& parts,
         row.true_eta_end_turntable = eta_rot / trials_done;
         row.max_trans_speed_cm_s = mean(row.trial_trans_speed_cm_s);
         row.max_rot_speed_deg_s = mean(row.trial_rot_speed_deg_s);
+        finishCurve(row.trans_curve, trials_done);
+        finishCurve(row.rot_curve, trials_done);
         result.rows.push_back(row);
       }
       if (result.interrupted) return result;
@@ -191,6 +226,7 @@ Json toJson(const SpeedResult& result, const SpeedOptions& o) {
   opt.set("success_rot_deg", o.success_rot_deg);
   opt.set("success_trans_m", o.success_trans);
   opt.set("eta1", 0.0);
+  opt.set("follow_crater", o.follow_crater);
   doc.set("options", opt);
   Json rows = Json::array();
   for (const SpeedRow& r : result.rows) {
@@ -203,6 +239,8 @@ Json toJson(const SpeedResult& result, const SpeedOptions& o) {
     j.set("trials", r.trials);
     j.set("trial_trans_speed_cm_s", Json::arrayOf(r.trial_trans_speed_cm_s));
     j.set("trial_rot_speed_deg_s", Json::arrayOf(r.trial_rot_speed_deg_s));
+    j.set("linear", curveJson(r.trans_curve, lin));
+    j.set("turntable", curveJson(r.rot_curve, rot));
     j.set("true_eta_start", r.true_eta_start);
     j.set("true_eta_end_linear", r.true_eta_end_linear);
     j.set("true_eta_end_turntable", r.true_eta_end_turntable);

@@ -15,7 +15,7 @@ namespace depowder::eval {
 namespace {
 
 struct TrialFigures {
-  double rot_sum = 0, trans_sum = 0;
+  double rot_sum = 0, trans_sum = 0, tilt_sum = 0;
   PoseError last;
   int frames = 0, tracked = 0, lost = 0, updates = 0;
   double template_size_sum = 0, ms_sum = 0;
@@ -83,6 +83,7 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
             break;
           }
           advanceFrame(world, cell, [&](double t) {
+            if (!o.nozzle) return world.removeNozzle();
             const sim::ArmState arm = script.at(t);
             world.setNozzle(arm.T_cell_nozzle, arm.tool);
           });
@@ -95,6 +96,7 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
             TrialFigures& g = fig[m];
             g.rot_sum += e.rot_deg;
             g.trans_sum += e.trans_cm;
+            g.tilt_sum += tiltError(tr.T_cell_part, truth.T_cell_part);
             g.last = e;
             ++g.frames;
             g.tracked += tr.status == tracker::TrackStatus::kTracking;
@@ -122,6 +124,7 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
           row.trial_trans_err_cm.push_back(trans);
           row.worst_trial_rot_err_deg = std::max(row.worst_trial_rot_err_deg, rot);
           row.worst_trial_trans_err_cm = std::max(row.worst_trial_trans_err_cm, trans);
+          row.tilt_err_deg += g.tilt_sum / g.frames;
           row.final_rot_err_deg += g.last.rot_deg;
           row.final_trans_err_cm += g.last.trans_cm;
           row.init_rot_err_deg += init_err.rot_deg;
@@ -140,9 +143,9 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
         row.true_eta = eta_sum / n;
         row.rot_err_deg = mean(row.trial_rot_err_deg);  // equal frame counts: the mean over all frames
         row.trans_err_cm = mean(row.trial_trans_err_cm);
-        for (double* v :
-             {&row.final_rot_err_deg, &row.final_trans_err_cm, &row.init_rot_err_deg, &row.init_trans_err_cm,
-              &row.tracked_fraction, &row.lost_fraction, &row.template_updates, &row.template_size, &row.track_ms})
+        for (double* v : {&row.tilt_err_deg, &row.final_rot_err_deg, &row.final_trans_err_cm, &row.init_rot_err_deg,
+                          &row.init_trans_err_cm, &row.tracked_fraction, &row.lost_fraction, &row.template_updates,
+                          &row.template_size, &row.track_ms})
           *v /= n;
         result.rows.push_back(row);
       }
@@ -164,6 +167,7 @@ Json toJson(const StaticResult& result, const StaticOptions& o) {
   opt.set("init_trans_max_m", o.init_trans);
   opt.set("init_rot_max_deg", o.init_rot_deg);
   opt.set("max_offset_m", o.max_offset);
+  opt.set("nozzle", o.nozzle);
   opt.set("nozzle_standoff_m", o.nozzle_standoff);
   opt.set("nozzle_above_top_m", o.nozzle_above);
   opt.set("nozzle_period_s", o.nozzle_period);
@@ -178,6 +182,7 @@ Json toJson(const StaticResult& result, const StaticOptions& o) {
     j.set("visibility", r.visibility);
     j.set("rot_err_deg", r.rot_err_deg);
     j.set("trans_err_cm", r.trans_err_cm);
+    j.set("tilt_err_deg", r.tilt_err_deg);
     j.set("final_rot_err_deg", r.final_rot_err_deg);
     j.set("final_trans_err_cm", r.final_trans_err_cm);
     j.set("worst_trial_rot_err_deg", r.worst_trial_rot_err_deg);

@@ -34,6 +34,7 @@ struct StaticOptions {
   double init_rot_deg = 3.0;      ///< deg, largest initial rotation error (random axis, uniform angle)
   double max_offset = 0.02;       ///< m, the part's centre is placed uniformly within this of the box centre
   double bottom_z = 0.03;         ///< m, the part's bottom above the box floor
+  bool nozzle = true;             ///< false: no nozzle in the cell (ablation: what its interference costs)
   double nozzle_standoff = 0.03;  ///< m from the part's bounding box to the nozzle axis (x and y semi-axes)
   double nozzle_above = 0.01;     ///< m, nozzle tip above the part's top
   double nozzle_period = 2.0;     ///< s per revolution around the part
@@ -50,6 +51,8 @@ struct StaticRow {
   int trials = 0, frames = 0;  ///< trials finished; frames per trial
   double rot_err_deg = 0;      ///< mean over all frames of all trials
   double trans_err_cm = 0;
+  double tilt_err_deg = 0;       ///< mean angle between the estimated and true part z axes: the rotation error without
+                                 ///< the spin about the part's own vertical axis (what symmetric parts cannot show)
   double final_rot_err_deg = 0;  ///< mean over trials of the last frame's error
   double final_trans_err_cm = 0;
   double worst_trial_rot_err_deg = 0;  ///< the largest per-trial mean
@@ -76,8 +79,14 @@ struct SpeedOptions {
   double success_rot_deg = 15;   ///< Table II's success: final error within 15 deg...
   double success_trans = 0.015;  ///< ... and 15 mm
   double bottom_z = 0.03;
-  double dig_step = 0.01;  ///< m / (rad x 0.1 m): the trench is dug at poses this far apart along the path
+  double dig_step = 0.01;     ///< m / (rad x 0.1 m): the trench is dug at poses this far apart along the path
+  bool follow_crater = true;  ///< re-dig around the part every frame so its visibility stays as set during the motion
   std::uint32_t seed = 1;
+};
+
+/// Per speed of a list, over the trials: how often it was tracked and the mean final errors.
+struct SpeedCurve {
+  std::vector<double> success_rate, final_rot_err_deg, final_trans_err_cm;
 };
 
 /// One row of Fig. 10: the highest speeds a method tracked (mean over trials; a trial's
@@ -90,6 +99,7 @@ struct SpeedRow {
   double max_trans_speed_cm_s = 0;
   double max_rot_speed_deg_s = 0;
   std::vector<double> trial_trans_speed_cm_s, trial_rot_speed_deg_s;
+  SpeedCurve trans_curve, rot_curve;                          ///< per speed of the list
   double min_trans_tried_cm_s = 0, max_trans_tried_cm_s = 0;  ///< the list's range
   double min_rot_tried_deg_s = 0, max_rot_tried_deg_s = 0;
 };

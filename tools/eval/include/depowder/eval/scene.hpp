@@ -73,5 +73,7 @@ struct PoseError {
   double trans_cm = 0;
 };
 PoseError poseError(const Pose& estimate, const Pose& truth);
+/// Angle (deg) between the estimate's and the truth's part z axes.
+double tiltError(const Pose& estimate, const Pose& truth);
 
 }  // namespace depowder::eval
