@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 
-#include "depowder/point_grid.hpp"
 #include "depowder/progress/progress.hpp"
 #include "depowder/tracker/registration.hpp"
 #include "depowder/tracker/template.hpp"
@@ -79,7 +78,7 @@ PclFrame PclTracker::track(const Cloud& scan) {
       target->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
     }
   if (crop.size() >= 3) {
-    const PointGrid grid(crop, m.xi);
+    const ScanIndex grid(crop, m.xi);
     if (!m.started) {
       const double eta = m.etaAt(m.T_init, crop);
       if (!std::isnan(eta) && eta > m.config.eta1) {

@@ -110,7 +110,7 @@ TrackResult PartTracker::track(const Cloud& scan) {
                                 fixed(config_.crop_margin * 100, 1) + " cm of the part (need " +
                                 std::to_string(config_.min_scan_points) + ")"));
   const double max_distance = correspondenceDistance();
-  const PointGrid grid(crop_, std::max(max_distance, xi_));
+  const ScanIndex grid(crop_, std::max(max_distance, xi_));
   r.timing.crop_ms = msSince(t0);
 
   // Phase 1 (Sec. III-B): while eta <= eta1 no tracking; the initial pose is reported.
@@ -159,8 +159,7 @@ TrackResult PartTracker::track(const Cloud& scan) {
     src = &visible_points_;
     src_n = &visible_normals_;
   }
-  const RegistrationResult reg =
-      registerPointToPlane(*src, *src_n, crop_, grid, T_cell_part_, max_distance, config_.icp);
+  const RegistrationResult reg = registerPointToPlane(*src, *src_n, grid, T_cell_part_, max_distance, config_.icp);
   r.timing.icp_ms = msSince(t0);
   r.iterations = reg.iterations;
   r.fitness = reg.rms;

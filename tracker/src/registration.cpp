@@ -60,8 +60,8 @@ double robustWeight(double r, double s2) {
 // The update perturbs the inverse pose, T^-1 <- exp(delta) T^-1 with delta = (omega, v), so
 //   dr/domega = (T^-1 q) x n,  dr/dv = n;
 // the CAD normals stay fixed in the part frame and Gauss-Newton is exact for this cost.
-LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const Cloud& target, const PointGrid& grid,
-                               const Pose& T, double max_distance, double s2, std::vector<double>& abs_r) {
+LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const ScanIndex& target, const Pose& T,
+                               double max_distance, double s2, std::vector<double>& abs_r) {
   LinearSystem sys;
   abs_r.clear();
   const Pose T_inv = T.inverse(Eigen::Isometry);
@@ -72,9 +72,9 @@ LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const 
   Vector6d J;
   for (std::size_t i = 0; i < source.size(); ++i) {
     const Eigen::Vector3d p_target = R * source[i] + t;
-    const PointGrid::Hit hit = grid.nearest(p_target, max_distance);
+    const ScanIndex::Hit hit = target.nearest(p_target, max_distance);
     if (!hit.found()) continue;
-    const Eigen::Vector3d q = Ri * target[hit.index] + ti;  // scan point in the source frame
+    const Eigen::Vector3d q = Ri * target.point(hit.index) + ti;  // scan point in the source frame
     const Eigen::Vector3d& n = normals[i];
     const double r = n.dot(q - source[i]);
     J.head<3>() = q.cross(n);
@@ -104,9 +104,8 @@ Pose increment(const Vector6d& delta) {
 
 }  // namespace
 
-RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
-                                        const PointGrid& grid, const Pose& guess, double max_distance,
-                                        const IcpConfig& config) {
+RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
+                                        const Pose& guess, double max_distance, const IcpConfig& config) {
   RegistrationResult result;
   const bool guess_ok = guess.matrix().allFinite() && isValidPose(guess, 1e-4);
   if (guess_ok) {
@@ -123,7 +122,7 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   if (source_normals.size() != source.size())
     return invalid("source has " + std::to_string(source.size()) + " points but " +
                    std::to_string(source_normals.size()) + " normals");
-  if (target.empty() || grid.size() != target.size()) return invalid("target (scan) is empty or not the grid's cloud");
+  if (target.size() == 0) return invalid("target (scan) is empty");
   if (!(std::isfinite(max_distance) && max_distance > 0)) return invalid("max correspondence distance must be > 0");
   if (config.max_iterations < 1) return invalid("max_iterations must be >= 1");
 
@@ -143,8 +142,7 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   result.status = RegistrationStatus::kMaxIterations;
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
     // Associate and linearise at the current estimate.
-    const LinearSystem sys =
-        buildLinearSystem(source, source_normals, target, grid, T, max_distance, scale * scale, abs_r);
+    const LinearSystem sys = buildLinearSystem(source, source_normals, target, T, max_distance, scale * scale, abs_r);
     result.iterations = iteration;
     result.correspondences = sys.matches;
     result.inlier_ratio = static_cast<double>(sys.matches) / static_cast<double>(source.size());
@@ -207,8 +205,8 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
 
 RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
                                         const Pose& guess, double max_distance, const IcpConfig& config) {
-  const PointGrid grid(target, std::isfinite(max_distance) && max_distance > 0 ? max_distance : 1.0);
-  return registerPointToPlane(source, source_normals, target, grid, guess, max_distance, config);
+  const ScanIndex index(target, std::isfinite(max_distance) && max_distance > 0 ? max_distance : 1.0);
+  return registerPointToPlane(source, source_normals, index, guess, max_distance, config);
 }
 
 }  // namespace depowder::tracker

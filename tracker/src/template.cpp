@@ -8,12 +8,12 @@
 
 namespace depowder::tracker {
 
-Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const PointGrid& scan_grid, double xi) {
+Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const ScanIndex& scan, double xi) {
   Indices out;
   const double xi2 = xi * xi;
   for (std::size_t i = 0; i < cad_points.size(); ++i) {
     // Alg. 2, lines 3-4: nearest scan point and its distance to the CAD point at the current pose.
-    const PointGrid::Hit hit = scan_grid.nearest(T_cell_part * cad_points[i], xi);
+    const ScanIndex::Hit hit = scan.nearest(T_cell_part * cad_points[i], xi);
     // Lines 5-6: d < xi adds the CAD point to the template.
     if (hit.found() && hit.distance2 < xi2) out.push_back(static_cast<std::uint32_t>(i));
   }

@@ -7,7 +7,6 @@
 
 #include "depowder/geometry.hpp"
 #include "depowder/mesh.hpp"
-#include "depowder/point_grid.hpp"
 #include "depowder/tracker/config.hpp"
 #include "depowder/tracker/registration.hpp"
 #include "depowder/tracker/template.hpp"

@@ -1,13 +1,13 @@
 // Point-to-plane ICP of an oriented source (CAD template points with their normals)
 // onto a target scan, with a robust kernel and nearest-neighbour association in a
-// PointGrid built once per frame. This is Alg. 1, line 8: ICP(P_tmpl, P_i).
+// ScanIndex built once per frame. This is Alg. 1, line 8: ICP(P_tmpl, P_i).
 #pragma once
 
 #include <string>
 
 #include "depowder/geometry.hpp"
-#include "depowder/point_grid.hpp"
 #include "depowder/tracker/config.hpp"
+#include "depowder/tracker/scan_index.hpp"
 
 namespace depowder::tracker {
 
@@ -31,20 +31,18 @@ struct RegistrationResult {
   bool ok() const { return status == RegistrationStatus::kConverged || status == RegistrationStatus::kMaxIterations; }
 };
 
-/// Registers `source` (points and unit normals, source frame) onto `target` (the cloud
-/// `grid` was built from). Association: each source point, moved by the current estimate,
-/// takes its nearest target point within `max_distance` (m; the grid's cell should be at
-/// least that). Residual: distance of that target point to the source point's tangent
-/// plane, weighted by a Geman-McClure kernel whose scale adapts to the residuals (3 robust
-/// sigmas, never below config.kernel_scale). Gauss-Newton
-/// on SE(3), starting at `guess`, with a motion prior towards the guess worth
-/// config.motion_prior of the matches (0 for a one-off registration). config.max_correspondence_distance
-/// is not read here.
-RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
-                                        const PointGrid& grid, const Pose& guess, double max_distance,
-                                        const IcpConfig& config);
+/// Registers `source` (points and unit normals, source frame) onto the scan in `target`.
+/// Association: each source point, moved by the current estimate, takes its nearest target
+/// point within `max_distance` (m; the index's cell should be about that). Residual: distance
+/// of that target point to the source point's tangent plane, weighted by a Geman-McClure
+/// kernel whose scale adapts to the residuals (3 robust sigmas, never below
+/// config.kernel_scale). Gauss-Newton on SE(3), starting at `guess`, with a motion prior
+/// towards the guess worth config.motion_prior of the matches (0 for a one-off registration).
+/// config.max_correspondence_distance is not read here.
+RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
+                                        const Pose& guess, double max_distance, const IcpConfig& config);
 
-/// Same, building the grid itself (tests, one-off registrations).
+/// Same, indexing `target` itself (tests, one-off registrations).
 RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
                                         const Pose& guess, double max_distance, const IcpConfig& config);
 

@@ -7,16 +7,15 @@
 #include <vector>
 
 #include "depowder/geometry.hpp"
-#include "depowder/point_grid.hpp"
+#include "depowder/tracker/scan_index.hpp"
 
 namespace depowder::tracker {
 
 using Indices = std::vector<std::uint32_t>;
 
 /// Alg. 2: the CAD samples (part frame) whose nearest scan point is closer than `xi` (m)
-/// when the CAD model is at `T_cell_part` (lines 3-6). `grid` is built on the scan with a
-/// cell of at least xi.
-Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const PointGrid& scan_grid, double xi);
+/// when the CAD model is at `T_cell_part` (lines 3-6), the scan indexed in `scan`.
+Indices deriveTemplate(const Cloud& cad_points, const Pose& T_cell_part, const ScanIndex& scan, double xi);
 
 /// One index per occupied `leaf` voxel (part frame): the first of `indices` in that voxel,
 /// ordered by voxel (z, y, x) for locality. leaf <= 0 returns `indices` unchanged.
