@@ -230,10 +230,10 @@ void save(const std::string& path, const Json& doc) {
 }
 
 const char* kMovingNote =
-    "**Not reproduced**: pushing a part through powder with the arm needs rigid-body physics (contact, "
-    "friction, the powder's drag), which the simulator does not have yet (sim/ has scripted poses only). "
-    "Scripted poses pretending to be a push would measure something else, so this table holds only the "
-    "paper's figures until `depowder-eval moving` exists.";
+    "**Not reproduced yet.** Pushing a part through powder with the arm needs the simulator's rigid-body "
+    "physics (contact, friction, the powder's support and drag: issue 4), which was not in the committed "
+    "sim/ when this report was made. Scripted poses pretending to be a push would measure something else, "
+    "so this table holds only the paper's figures until `depowder-eval moving` exists.";
 
 std::string defaultNotesPath() {
 #ifdef DEPOWDER_SOURCE_DIR

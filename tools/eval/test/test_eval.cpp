@@ -188,6 +188,14 @@ TEST(EvalReport, TablesCarryOursAndThePapers) {
   Json opt = Json::object();
   opt.set("trials", 2);
   opt.set("duration_s", 2.5);
+  opt.set("max_offset_m", 0.02);
+  opt.set("nozzle", true);
+  opt.set("nozzle_standoff_m", 0.03);
+  opt.set("nozzle_above_top_m", 0.01);
+  opt.set("nozzle_tilt_deg", 15.0);
+  opt.set("nozzle_period_s", 2.0);
+  opt.set("init_trans_max_m", 0.005);
+  opt.set("init_rot_max_deg", 3.0);
   s.set("options", opt);
   Json rows = Json::array();
   for (const char* m : {"cu", "continuous", "vanilla"}) {
@@ -197,8 +205,8 @@ TEST(EvalReport, TablesCarryOursAndThePapers) {
     r.set("visibility", 0.4);
     r.set("rot_err_deg", std::string(m) == "cu" ? 1.234 : 9.0);
     r.set("trans_err_cm", 0.111);
-    for (const char* k : {"tracked_fraction", "lost_fraction", "template_updates", "template_size", "track_ms",
-                          "init_rot_err_deg", "init_trans_err_cm"})
+    for (const char* k : {"tilt_err_deg", "tracked_fraction", "lost_fraction", "template_updates", "template_size",
+                          "track_ms", "init_rot_err_deg", "init_trans_err_cm"})
       r.set(k, 1.0);
     rows.push(r);
   }
