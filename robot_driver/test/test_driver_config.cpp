@@ -33,7 +33,7 @@ TEST(DriverConfig, DefaultCellRobotSection) {
   EXPECT_EQ(s.driver.session.client.host, "127.0.0.1");
   EXPECT_EQ(s.driver.session.client.port, 5007);
   EXPECT_EQ(s.driver.session.slave_mode, 0x202);
-  EXPECT_NEAR(s.driver.arm.T_flange_nozzle.translation().z(), 0.129, 1e-12);
+  EXPECT_NEAR(s.driver.arm.T_flange_nozzle.translation().z(), 0.25, 1e-12);  // end effector + tube
   EXPECT_GE(s.node.state_rate_hz, 125.0);
   EXPECT_EQ(s.driver.session.vacuum_variable, "IO24");
   // Home: within limits, nozzle inside the workspace, pointing down.
