@@ -151,6 +151,17 @@ World::World(const SimConfig& config, const BoxGeometry& box, std::vector<PartSp
     addRect(table_mesh_, {0, 0, -box_.wall}, 2, +1, Eigen::Vector3d::Constant(0.5 * config_.scene.table_size));
   nozzle_mesh_ = makeNozzleMesh(config_.nozzle);
   nozzle_samples_ = contactSamples(nozzle_mesh_, config_.scene.contact_spacing);
+
+  if (config_.physics.enabled) {
+    std::vector<PartSpec> specs;
+    std::vector<const PartSolid*> solids;
+    for (const auto& p : parts_) {
+      specs.push_back(p.spec);
+      solids.push_back(&p.solid);
+    }
+    physics_ = std::make_unique<Physics>(config_.physics, box_, specs, solids);
+    physics_->setNozzleMesh(nozzle_mesh_);
+  }
 }
 
 std::size_t World::partIndex(const std::string& name) const {
@@ -164,6 +175,7 @@ std::size_t World::partIndex(const std::string& name) const {
 
 void World::updatePartGeometry(PartState& p) {
   const Pose& T = p.spec.T_cell_part;
+  p.T_geometry = T;
   std::vector<Eigen::Vector3d> posed(p.spec.mesh.vertices.size());
   p.h_max = -kInf;
   p.h_min = kInf;
@@ -192,6 +204,10 @@ void World::updatePartGeometry(PartState& p) {
         j0 = std::min(j0, j);
         j1 = std::max(j1, j);
       }
+  p.fi0 = i0;
+  p.fi1 = i1;
+  p.fj0 = j0;
+  p.fj1 = j1;
   if (i1 < 0) return;  // not over the box
   const int margin = static_cast<int>(std::ceil(config_.truth.band_outer / std::min(powder_.dx(), powder_.dy()))) + 2;
   const std::vector<double> dist =
@@ -228,10 +244,12 @@ void World::setNozzleMesh(Mesh mesh, bool closed_outward) {
   nozzle_mesh_ = std::move(mesh);
   nozzle_closed_ = closed_outward;
   nozzle_samples_ = contactSamples(nozzle_mesh_, config_.scene.contact_spacing);
+  if (physics_) physics_->setNozzleMesh(nozzle_mesh_);
 }
 
 void World::setArmLinks(std::vector<Mesh> link_meshes) {
   link_meshes_ = std::move(link_meshes);
+  if (physics_) physics_->setArmLinks(link_meshes_);
   link_samples_.clear();
   for (const auto& m : link_meshes_) link_samples_.push_back(contactSamples(m, config_.scene.contact_spacing));
   T_cell_links_.clear();
@@ -249,10 +267,12 @@ void World::setPartPose(std::size_t part, const Pose& T_cell_part) {
   p.spec.T_cell_part = T_cell_part;
   updatePartGeometry(p);
   updateFloor();
+  if (physics_) physics_->teleport(part, T_cell_part);
 }
 
 void World::step(double dt) {
   powder_.beginStep();
+  advanceParts(dt);
   if (nozzle_present_) {
     const Eigen::Vector3d tip = T_cell_nozzle_.translation();
     if (tool_ == Tool::kVacuum) removed_ += powder_.vacuum(tip, config_.vacuum, dt);
@@ -262,6 +282,7 @@ void World::step(double dt) {
   updateContacts();
   for (auto& p : parts_) {
     p.speed = dt > 0 ? translationDistance(p.spec.T_cell_part, p.T_last) / dt : 0.0;
+    p.angular_speed = dt > 0 ? rotationAngle(p.T_last.linear(), p.spec.T_cell_part.linear()) / dt : 0.0;
     p.T_last = p.spec.T_cell_part;
   }
   time_ += dt;
@@ -269,7 +290,8 @@ void World::step(double dt) {
 }
 
 void World::updateContacts() {
-  for (auto& p : parts_) {
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    PartState& p = parts_[i];
     const Pose T_part_cell = p.spec.T_cell_part.inverse();
     bool contact = false;
     auto test = [&](const Cloud& samples, const Pose& T_cell_object) {
@@ -281,6 +303,8 @@ void World::updateContacts() {
     if (nozzle_present_) contact = test(nozzle_samples_, T_cell_nozzle_);
     for (std::size_t k = 0; !contact && k < T_cell_links_.size(); ++k)
       contact = test(link_samples_[k], T_cell_links_[k]);
+    // With physics the nozzle pushes instead of entering: touching counts.
+    if (!contact && physics_) contact = physics_->touching(i);
     if (contact && !p.contact) ++contact_count_;
     p.contact = contact;
   }
@@ -289,10 +313,16 @@ void World::updateContacts() {
 void World::setPowderLevel(double level) { powder_.fill(std::min(level, box_.size.z())); }
 
 void World::digToVisibility(std::size_t part, double eta) {
+  digAround(part, eta, std::max(powder_.nx(), powder_.ny()));
+}
+
+void World::digAround(std::size_t part, double eta, int margin) {
   const PartState& p = parts_.at(part);
   eta = std::clamp(eta, 0.0, 1.0);
   const double level = p.h_max - eta * (p.h_max - p.h_min);
-  const std::vector<double> dist = footprintDistance(powder_, p.top, 0, powder_.nx() - 1, 0, powder_.ny() - 1);
+  const std::vector<double> dist =
+      footprintDistance(powder_, p.top, std::max(0, p.fi0 - margin), std::min(powder_.nx() - 1, p.fi1 + margin),
+                        std::max(0, p.fj0 - margin), std::min(powder_.ny() - 1, p.fj1 + margin));
   // Flat to a little beyond the band, then up at 2 deg under the angle of repose (stable).
   const double flat = config_.truth.band_outer + 2 * std::max(powder_.dx(), powder_.dy());
   const double slope = std::tan((std::max(1.0, config_.powder.repose_deg - 2.0)) * M_PI / 180.0);
@@ -394,6 +424,219 @@ Truth World::truth() const {
   t.powder_volume_m3 = powder_.volume();
   t.contact_count = contact_count_;
   return t;
+}
+
+double World::powderInBox() const {
+  double sum = 0;
+  for (std::size_t c = 0; c < powder_.size(); ++c) {
+    const double h = powder_.height(c);
+    double occ = 0;
+    for (const auto& p : parts_)
+      if (std::isfinite(p.top[c]) && h > std::max(0.0, p.bottom[c]))
+        occ += std::min(p.top[c], h) - std::max(0.0, p.bottom[c]);
+    sum += std::max(0.0, h - occ);
+  }
+  return sum * powder_.cellArea();
+}
+
+void World::movePart(std::size_t part, const Pose& T_cell_part) {
+  std::vector<Pose> poses;
+  for (const auto& p : parts_) poses.push_back(p.spec.T_cell_part);
+  poses.at(part) = T_cell_part;
+  std::vector<bool> displace(parts_.size(), false);
+  displace[part] = true;
+  moveParts(poses, displace);
+  if (physics_) physics_->teleport(part, T_cell_part);
+}
+
+void World::setPartMotion(std::size_t part, const Motion& motion) {
+  PartState& p = parts_.at(part);
+  PartState::Scripted s;
+  s.motion = motion;
+  s.motion.start = std::max(motion.start, time_);
+  s.T_start = p.spec.T_cell_part;
+  if (motion.centre) {
+    s.centre = *motion.centre;
+  } else {
+    Eigen::AlignedBox3d b;
+    for (const auto& v : p.spec.mesh.vertices) b.extend(p.spec.T_cell_part * v);
+    s.centre = b.center().head<2>();
+  }
+  p.motion = s;
+  if (physics_) physics_->setScripted(part, true);
+}
+
+void World::clearPartMotion(std::size_t part) {
+  parts_.at(part).motion.reset();
+  if (physics_) physics_->setScripted(part, false);
+}
+
+void World::advanceParts(double dt) {
+  const double t_end = time_ + dt;
+  std::vector<std::optional<Pose>> targets(parts_.size());
+  bool scripted = false;
+  for (std::size_t i = 0; i < parts_.size(); ++i)
+    if (const auto& m = parts_[i].motion) {
+      targets[i] = motionPose(m->motion, m->T_start, m->centre, t_end);
+      scripted = true;
+    }
+  if (!physics_ && !scripted) return;
+
+  // 1. Where the parts go: scripted ones on their paths, the others where the physics takes them.
+  std::vector<Pose> poses(parts_.size());
+  if (physics_) {
+    Physics::StepInput in;
+    in.nozzle_present = nozzle_present_;
+    in.T_cell_nozzle = T_cell_nozzle_;
+    in.T_cell_links = T_cell_links_;
+    in.targets = targets;
+    in.powder = &powder_;
+    in.repose_deg = config_.powder.repose_deg;
+    in.covered = [this](std::size_t part, std::size_t cell) { return std::isfinite(parts_[part].top[cell]); };
+    physics_->step(dt, in);
+  }
+  std::vector<bool> displace(parts_.size());
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    poses[i] = targets[i] ? *targets[i] : physics_ ? physics_->pose(i) : parts_[i].spec.T_cell_part;
+    const auto& m = parts_[i].motion;
+    displace[i] = m ? m->motion.visibility < 0 : config_.physics.powder.displace;
+  }
+
+  // 2. Move them (the powder is pushed aside), then keep the set visibilities (the crater follows).
+  moveParts(poses, displace);
+  const double cell = std::min(powder_.dx(), powder_.dy());
+  const int margin = static_cast<int>(std::ceil((config_.truth.band_outer + 0.03) / cell)) + 2;
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    const auto& m = parts_[i].motion;
+    if (m && m->motion.visibility >= 0) digAround(i, m->motion.visibility, margin);
+  }
+
+  // 3. Motions that ended release their parts.
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    const auto& m = parts_[i].motion;
+    if (m && t_end >= m->motion.start + m->motion.duration - 1e-12) clearPartMotion(i);
+  }
+}
+
+void World::moveParts(const std::vector<Pose>& poses, const std::vector<bool>& displace) {
+  // Parts that moved enough to change their envelope (below this the geometry is kept: a part the
+  // powder holds does not redo it every step for numerical noise).
+  constexpr double kMoved = 1e-7, kTurned = 1e-6;  // m, rad
+  std::vector<std::size_t> moved;
+  bool any_displaced = false;
+  int i0 = powder_.nx(), i1 = -1, j0 = powder_.ny(), j1 = -1;  // cells the displacing parts cover, old or new
+  auto extend = [&](const PartState& p) {
+    if (p.fi0 > p.fi1) return;
+    i0 = std::min(i0, p.fi0);
+    i1 = std::max(i1, p.fi1);
+    j0 = std::min(j0, p.fj0);
+    j1 = std::max(j1, p.fj1);
+  };
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    PartState& p = parts_[i];
+    p.spec.T_cell_part = poses[i];
+    if (translationDistance(poses[i], p.T_geometry) <= kMoved &&
+        rotationAngle(poses[i].linear(), p.T_geometry.linear()) <= kTurned)
+      continue;
+    moved.push_back(i);
+    if (displace[i]) {
+      any_displaced = true;
+      extend(p);
+    }
+  }
+  if (moved.empty()) return;
+
+  // Part material below height h in column c: sum over parts of [bottom, top] cut at h.
+  auto occupied = [&](std::size_t c, double h, const std::vector<const PartState*>& ps,
+                      const std::vector<const std::vector<double>*>& tops,
+                      const std::vector<const std::vector<double>*>& bottoms) {
+    double occ = 0;
+    for (std::size_t k = 0; k < ps.size(); ++k) {
+      const double top = (*tops[k])[c], bottom = std::max(0.0, (*bottoms[k])[c]);  // none below the box floor
+      if (std::isfinite(top) && h > bottom) occ += std::min(top, h) - bottom;
+    }
+    return occ;
+  };
+  std::vector<const PartState*> all;
+  std::vector<const std::vector<double>*> tops, bottoms;
+  for (const auto& p : parts_) {
+    all.push_back(&p);
+    tops.push_back(&p.top);
+    bottoms.push_back(&p.bottom);
+  }
+
+  // 1. Before: each column's powder (surface height less the parts below it), over the window.
+  std::vector<std::vector<double>> old_top(parts_.size()), old_bottom(parts_.size());
+  std::vector<double> column;
+  if (any_displaced) {
+    for (std::size_t i : moved) {
+      old_top[i] = parts_[i].top;
+      old_bottom[i] = parts_[i].bottom;
+    }
+  }
+  // 2. New envelopes and floors.
+  for (std::size_t i : moved) updatePartGeometry(parts_[i]);
+  if (!any_displaced) {
+    updateFloor();
+    return;
+  }
+  for (std::size_t i : moved)
+    if (displace[i]) extend(parts_[i]);
+  std::vector<const std::vector<double>*> tops_old = tops, bottoms_old = bottoms;
+  for (std::size_t i : moved) {
+    tops_old[i] = &old_top[i];
+    bottoms_old[i] = &old_bottom[i];
+  }
+  const int w = i1 - i0 + 1;
+  column.assign(static_cast<std::size_t>(std::max(0, w)) * std::max(0, j1 - j0 + 1), 0.0);
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
+      const std::size_t c = powder_.index(i, j);
+      const double h = powder_.height(c);
+      column[static_cast<std::size_t>(j - j0) * w + (i - i0)] =
+          std::max(0.0, h - occupied(c, h, all, tops_old, bottoms_old));
+    }
+  updateFloor();
+  // 3. After: the surface h' with h' - (parts below h') = the column's powder, never below the floor.
+  std::vector<std::pair<double, double>> intervals;
+  double gap = 0;  // m (per cell area) of gaps opened under parts
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
+      const std::size_t c = powder_.index(i, j);
+      const double powder = column[static_cast<std::size_t>(j - j0) * w + (i - i0)];
+      // Stack the column from the bottom up: a part whose bottom the powder reaches is lifted onto it whole.
+      intervals.clear();
+      for (const auto& p : parts_)
+        if (std::isfinite(p.top[c])) intervals.emplace_back(std::max(0.0, p.bottom[c]), p.top[c]);
+      std::sort(intervals.begin(), intervals.end());
+      double h = powder;
+      for (const auto& [bottom, top] : intervals)
+        if (h > bottom) h += top - bottom;
+      // A part whose bottom rose above its column's powder opened a gap under it: powder runs in from
+      // around it (taken below), so the gap is filled and the column's surface is its top.
+      if (!intervals.empty() && h <= intervals.front().first) gap += intervals.front().first - h;
+      h = std::max(h, powder_.floor(c));
+      if (std::abs(h - powder_.height(c)) > 1e-12) powder_.setHeight(c, h);
+    }
+  // 4. The powder that ran into gaps comes from the ring of cells around the footprints.
+  if (gap <= 0) return;
+  std::vector<std::size_t> ring;
+  double available = 0;
+  for (int j = std::max(0, j0 - 1); j <= std::min(powder_.ny() - 1, j1 + 1); ++j)
+    for (int i = std::max(0, i0 - 1); i <= std::min(powder_.nx() - 1, i1 + 1); ++i) {
+      const std::size_t c = powder_.index(i, j);
+      if (powder_.overPart(c)) continue;
+      bool edge = false;
+      for (int b = std::max(0, j - 1); b <= std::min(powder_.ny() - 1, j + 1) && !edge; ++b)
+        for (int a = std::max(0, i - 1); a <= std::min(powder_.nx() - 1, i + 1) && !edge; ++a)
+          edge = powder_.overPart(powder_.index(a, b));
+      if (!edge) continue;
+      ring.push_back(c);
+      available += powder_.height(c) - powder_.floor(c);
+    }
+  if (available <= 0) return;
+  const double share = std::min(1.0, gap / available);
+  for (std::size_t c : ring) powder_.setHeight(c, powder_.height(c) - share * (powder_.height(c) - powder_.floor(c)));
 }
 
 }  // namespace depowder::sim

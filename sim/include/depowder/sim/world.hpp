@@ -10,11 +10,16 @@
 //   DepthImage frame = world.render(0);          // the camera's own seeded noise stream
 //   Truth truth = world.truth();                 // poses, Eq. 2 eta, contacts, powder removed
 //
-// Parts may be moved every step (setPartPose): the powder's floor follows, so the physics
-// of the next issue only has to set poses.
+// Parts may be moved every step (setPartPose): the powder's floor follows. With
+// `physics.enabled` the parts are rigid bodies (physics.hpp): gravity, the powder's support and
+// drag, the box, and the nozzle and arm links pushing them; they move in step() and push the
+// powder aside (movePart). Scripted motions (setPartMotion: linear actuator, turntable) move a
+// part kinematically, with or without physics.
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -23,6 +28,7 @@
 #include "depowder/mesh.hpp"
 #include "depowder/sim/camera.hpp"
 #include "depowder/sim/nozzle.hpp"
+#include "depowder/sim/physics.hpp"
 #include "depowder/sim/powder.hpp"
 #include "depowder/sim/raster.hpp"
 #include "depowder/sim/solid.hpp"
@@ -48,6 +54,7 @@ struct SimConfig {
   NozzleGeometry nozzle;
   TruthConfig truth;
   SceneConfig scene;
+  PhysicsConfig physics;  ///< rigid-body dynamics of the parts (off by default in the library)
 };
 
 struct BoxGeometry {
@@ -59,7 +66,7 @@ struct PartSpec {
   std::string name;
   Mesh mesh;                            ///< part frame, metres
   Pose T_cell_part = Pose::Identity();  ///< initial pose
-  double density = 1000;                ///< kg/m^3 (for the physics of the next issue)
+  double density = 1000;                ///< kg/m^3 of the printed material (physics: mass = volume x density)
 };
 
 struct PartTruth {
@@ -72,6 +79,7 @@ struct PartTruth {
   int band_cells = 0;           ///< powder cells in the band (0: eta is 0 and meaningless)
   bool nozzle_contact = false;  ///< the nozzle (or an arm link) is inside the part now
   double speed = 0;             ///< m/s of the part origin over the last step
+  double angular_speed = 0;     ///< rad/s of the part's rotation over the last step
 };
 
 struct Truth {
@@ -101,9 +109,22 @@ class World {
   /// tested for contact.
   void setArmLinks(std::vector<Mesh> link_meshes);
   void setArmLinkPoses(const std::vector<Pose>& T_cell_link);
-  /// Moves a part (scripted motion, physics). The powder's floor follows at once.
+  /// Moves a part (scripted motion, physics). The powder's floor follows at once. With physics, the
+  /// part's body is put there at rest.
   void setPartPose(std::size_t part, const Pose& T_cell_part);
-  /// Advances the tools, the powder relaxation and the contacts by dt seconds.
+  /// Moves a part as the physics does, pushing the powder: in each column the powder the part moves
+  /// into goes up (onto the part: piles up in front, then slides off), and where it leaves, the powder
+  /// above falls into the gap (spreads behind); the column's powder volume is kept (a gap opened
+  /// under a part lifting out of the powder is not represented). The floors follow.
+  void movePart(std::size_t part, const Pose& T_cell_part);
+  /// A scripted motion (paper Fig. 10): from now on the part is moved, not simulated (kinematic: it
+  /// pushes other parts, nothing pushes it). It holds until motion.start (a start in the past means
+  /// now), moves until start + duration, then is released (physics: a free body at rest).
+  void setPartMotion(std::size_t part, const Motion& motion);
+  /// Ends a scripted motion now (the part stays where it is, free again).
+  void clearPartMotion(std::size_t part);
+  bool hasPartMotion(std::size_t part) const { return parts_.at(part).motion.has_value(); }
+  /// Advances the parts (motions, physics), the tools, the powder relaxation and the contacts by dt seconds.
   void step(double dt);
 
   // --- powder set-up ---
@@ -135,9 +156,14 @@ class World {
   const PartSpec& part(std::size_t i) const { return parts_[i].spec; }
   /// Index of the part called `name`; throws std::invalid_argument naming the known parts.
   std::size_t partIndex(const std::string& name) const;
+  /// All the powder in the box, m^3: above the floors and hidden under the parts (each column's
+  /// surface height less the parts below it). Moving parts keep it, but for the gaps noted at movePart.
+  double powderInBox() const;
   /// Powder removed by the tools since the start, m^3 (cheap; truth() also has it).
   double powderRemoved() const { return removed_; }
   const Pose& nozzlePose() const { return T_cell_nozzle_; }
+  /// The rigid-body engine, or null when config().physics.enabled is false.
+  const Physics* physics() const { return physics_.get(); }
   Tool tool() const { return tool_; }
   bool nozzlePresent() const { return nozzle_present_; }
 
@@ -149,13 +175,27 @@ class World {
     std::vector<std::size_t> band;    ///< powder cells of the Eq. 2 band
     double h_max = 0, h_min = 0;
     Pose T_last = Pose::Identity();  ///< pose at the end of the last step
-    double speed = 0;
+    double speed = 0, angular_speed = 0;
     bool contact = false;
+    Pose T_geometry = Pose::Identity();        ///< the pose top/bottom/band were computed for
+    int fi0 = 0, fi1 = -1, fj0 = 0, fj1 = -1;  ///< cell bounds of the footprint (empty if fi0 > fi1)
+    struct Scripted {
+      Motion motion;
+      Pose T_start = Pose::Identity();
+      Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    };
+    std::optional<Scripted> motion;
   };
   void updatePartGeometry(PartState& part);
   void updateFloor();
   void updateContacts();
   void buildPowderMesh();
+  /// Motions and physics for one step.
+  void advanceParts(double dt);
+  /// Sets the parts' poses; the powder is displaced by those with displace[i] (movePart).
+  void moveParts(const std::vector<Pose>& poses, const std::vector<bool>& displace);
+  /// digToVisibility within `margin` cells of the part's footprint.
+  void digAround(std::size_t part, double eta, int margin);
 
   SimConfig config_;
   BoxGeometry box_;
@@ -181,6 +221,8 @@ class World {
   std::vector<Eigen::Vector3f> powder_vertices_;
   std::vector<std::uint32_t> powder_indices_;
   std::uint64_t powder_mesh_version_ = ~0ull;
+
+  std::unique_ptr<Physics> physics_;
 
   double time_ = 0;
   std::int64_t steps_ = 0;
