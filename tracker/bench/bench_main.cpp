@@ -2,9 +2,11 @@
 // the same frames from the same initial poses: median time per frame per part on one core,
 // rotation / translation error against ground truth, peak memory.
 //
-// Frames: the five default parts buried in a flat powder plane at 40..100 % visibility,
-// two virtual L515 views merged and voxelled at 5 mm (scene.hpp), each part pushed slowly
-// (0.5 mm and 0.25 deg a frame). A stand-in until frames recorded from depowder-sim exist.
+// Frames: the five default parts at 40..100 % visibility, each pushed slowly (0.5 mm and
+// 0.25 deg a frame), seen by the cell's two cameras, merged, cropped to the box and voxelled
+// at 5 mm as the camera proxy publishes them. Source `sim` (default when sim/ is built): the
+// simulator's world (powder height field dug to the visibility, camera noise, flying pixels,
+// drop-outs). Source `synthetic`: a flat powder plane and z-buffered views (scene.hpp).
 #include <sys/resource.h>
 #include <time.h>
 
@@ -15,6 +17,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <string>
@@ -24,6 +27,10 @@
 #include "depowder/tracker/part_tracker.hpp"
 #include "pcl_baseline.hpp"
 #include "scene.hpp"
+#ifdef DEPOWDER_BENCH_HAVE_SIM
+#include "depowder/node/cell.hpp"
+#include "sim_frames.hpp"
+#endif
 
 namespace {
 
@@ -40,6 +47,14 @@ struct Options {
   double noise = 0.0015;          ///< m
   std::vector<std::string> sets;  ///< "key=value" overrides of TrackerConfig
   bool cull = true;               ///< give the trackers the camera positions (back-face culling)
+#ifdef DEPOWDER_BENCH_HAVE_SIM
+  std::string source = "sim";
+#else
+  std::string source = "synthetic";
+#endif
+  std::string cell;       ///< cell YAML for the sim source ("" = the default cell)
+  double init_deg = 2.0;  ///< initial pose error: rotation, deg...
+  double init_mm = 3.0;   ///< ...and translation, mm (random directions, seeded)
 };
 
 // --set key=value: the TrackerConfig fields worth sweeping (how the defaults were chosen).
@@ -60,6 +75,7 @@ void applySet(TrackerConfig& c, const std::string& kv) {
                                         {"icp.convergence_rotation", &c.icp.convergence_rotation},
                                         {"icp.kernel_scale", &c.icp.kernel_scale},
                                         {"icp.motion_prior", &c.icp.motion_prior},
+                                        {"icp.weak_direction", &c.icp.weak_direction},
                                         {"progress.grid_cell", &c.progress.grid_cell},
                                         {"progress.contour_spacing", &c.progress.contour_spacing},
                                         {"icp.max_step_rotation", &c.icp.max_step_rotation}};
@@ -76,18 +92,23 @@ void applySet(TrackerConfig& c, const std::string& kv) {
 }
 
 const char* kUsage =
-    "Usage: depowder-bench [--frames N] [--parts a,b] [--methods cu,continuous,vanilla,pcl]\n"
+    "Usage: depowder-bench [--source sim|synthetic] [--cell FILE] [--frames N] [--parts a,b]\n"
+    "                      [--methods cu,continuous,vanilla,pcl]\n"
     "                      [--visibilities 0.4,0.7,1.0] [--noise M] [--seed N] [--set key=value]...\n"
     "                      [--json FILE]\n"
-    "Tracks synthetic frames of the default parts (buried in powder, two cameras, 5 mm voxels)\n"
+    "Tracks frames of the default parts (buried in powder, two cameras, 5 mm voxels)\n"
     "with CU-ICP, its baselines and the authors' pcl::IterativeClosestPoint configuration, all\n"
     "from the same initial poses; prints the median time per frame per part (one core), the mean\n"
     "rotation / translation errors against ground truth and the peak memory.\n"
+    "  --source S        sim: the simulator's frames (default when built with sim/); synthetic: a flat\n"
+    "                    powder plane and z-buffered views (scene.hpp)\n"
+    "  --cell FILE       cell YAML whose cameras and box the sim source uses (default: the default cell)\n"
     "  --frames N        frames per (part, visibility) sequence (default 20)\n"
     "  --parts LIST      parts to use (default: cube,cup,propeller,owl,pipe)\n"
     "  --methods LIST    trackers to run (default: cu,continuous,vanilla,pcl)\n"
     "  --visibilities L  visibility fractions (default: 0.4,0.55,0.7,0.85,1.0)\n"
-    "  --noise M         range noise sigma, metres (default 0.0015)\n"
+    "  --noise M         range noise sigma of the synthetic source, metres (default 0.0015)\n"
+    "  --init-error D,M  initial pose error, deg and mm, random directions (default 2,3)\n"
     "  --seed N          random seed (default 1)\n"
     "  --set key=value   override a tracker config field for every method, e.g.\n"
     "                    --set icp.motion_prior=0.3 (unknown keys list the known ones)\n"
@@ -125,6 +146,15 @@ bool parse(int argc, char** argv, Options& o) {
       o.noise = std::stod(value());
     } else if (a == "--seed") {
       o.seed = static_cast<unsigned>(std::stoul(value()));
+    } else if (a == "--source") {
+      o.source = value();
+    } else if (a == "--cell") {
+      o.cell = value();
+    } else if (a == "--init-error") {
+      const std::vector<std::string> v = splitList(value());
+      if (v.size() != 2) throw std::invalid_argument("--init-error needs DEG,MM");
+      o.init_deg = std::stod(v[0]);
+      o.init_mm = std::stod(v[1]);
     } else if (a == "--no-cull") {
       o.cull = false;
     } else if (a == "--set") {
@@ -136,6 +166,11 @@ bool parse(int argc, char** argv, Options& o) {
     }
   }
   if (o.frames < 1) throw std::invalid_argument("--frames must be >= 1");
+#ifdef DEPOWDER_BENCH_HAVE_SIM
+  if (o.source != "sim" && o.source != "synthetic") throw std::invalid_argument("--source must be sim or synthetic");
+#else
+  if (o.source != "synthetic") throw std::invalid_argument("--source sim needs sim/ in the build");
+#endif
   for (const std::string& m : o.methods)
     if (m != "pcl" && !methodFromString(m)) throw std::invalid_argument("unknown method " + m);
   for (const std::string& p : o.parts) parts::byName(p);  // throws naming the known parts
@@ -220,11 +255,29 @@ int main(int argc, char** argv) {
   std::mt19937 rng(opt.seed);
   scene::SceneConfig scene_config;
   scene_config.noise_sigma = opt.noise;
-  if (opt.cull)
-    for (const scene::Camera& c : scene::defaultCameras()) base.viewpoints.push_back(c.T_cell_camera.translation());
+#ifdef DEPOWDER_BENCH_HAVE_SIM
+  std::unique_ptr<bench::SimFrames> sim;
+  if (opt.source == "sim") {
+    try {
+      sim = std::make_unique<bench::SimFrames>(opt.cell.empty() ? node::defaultCellPath() : opt.cell);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "depowder-bench: %s\n", e.what());
+      return 2;
+    }
+  }
+#endif
+  if (opt.cull) {
+#ifdef DEPOWDER_BENCH_HAVE_SIM
+    if (sim) base.viewpoints = sim->viewpoints();
+#endif
+    if (base.viewpoints.empty())
+      for (const scene::Camera& c : scene::defaultCameras()) base.viewpoints.push_back(c.T_cell_camera.translation());
+  }
 
-  std::printf("depowder-bench: %zu parts x %zu visibilities x %d frames, noise %.1f mm, synthetic frames\n",
-              opt.parts.size(), opt.visibilities.size(), opt.frames, opt.noise * 1000);
+  std::printf(
+      "depowder-bench: %zu parts x %zu visibilities x %d frames, %s frames%s\n", opt.parts.size(),
+      opt.visibilities.size(), opt.frames, opt.source.c_str(),
+      opt.source == "synthetic" ? (", noise " + std::to_string(opt.noise * 1000).substr(0, 4) + " mm").c_str() : "");
   for (const std::string& name : opt.parts) {
     const Mesh mesh = parts::byName(name);
     const double xi = xiFor(name);
@@ -240,14 +293,17 @@ int main(int argc, char** argv) {
         T.translation().x() += 0.0005 * k;
         T.linear() = Eigen::AngleAxisd(0.25 * M_PI / 180 * k, Eigen::Vector3d::UnitZ()) * T0.linear();
         truth.push_back(T);
-        frames.push_back(scene::render({{&mesh, T}}, powder_z, scene_config, rng));
+        if (opt.source == "synthetic") frames.push_back(scene::render({{&mesh, T}}, powder_z, scene_config, rng));
       }
-      // The same initial pose for every tracker: truth perturbed by 3 mm and 2 deg.
+#ifdef DEPOWDER_BENCH_HAVE_SIM
+      if (sim) frames = sim->render(name, mesh, truth, vis, static_cast<std::uint32_t>(rng()));
+#endif
+      // The same initial pose for every tracker: truth perturbed by 3 mm and 2 deg (--init-error).
       const Eigen::Vector3d dir = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
       const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
       Pose T_init = truth[0];
-      T_init.translation() += 0.003 * dir;
-      T_init.linear() = Eigen::AngleAxisd(2.0 * M_PI / 180, axis) * T_init.linear();
+      T_init.translation() += 0.001 * opt.init_mm * dir;
+      T_init.linear() = Eigen::AngleAxisd(opt.init_deg * M_PI / 180, axis) * T_init.linear();
 
       for (const std::string& method : opt.methods) {
         auto record = [&](const Pose& estimate, double ms, double cpu_ms, double register_ms, int k,
@@ -363,7 +419,7 @@ int main(int argc, char** argv) {
       std::snprintf(b, sizeof b, "%.6g", v);
       return std::string(b);
     };
-    out << "{\n  \"source\": \"synthetic\",\n  \"frames\": " << (have_cu ? sum["cu"].frames : 0) << ",\n";
+    out << "{\n  \"source\": \"" << opt.source << "\",\n  \"frames\": " << (have_cu ? sum["cu"].frames : 0) << ",\n";
     out << "  \"frames_per_sequence\": " << opt.frames << ",\n";
     out << "  \"cu_icp_ms_median\": " << num(have_cu ? sum["cu"].ms_median : NAN) << ",\n";
     out << "  \"pcl_icp_ms_median\": " << num(have_pcl ? sum["pcl"].ms_median : NAN) << ",\n";

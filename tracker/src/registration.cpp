@@ -1,6 +1,7 @@
 #include "depowder/tracker/registration.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -135,8 +136,8 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   double length2 = 0;
   for (const Point& p : source) length2 += p.squaredNorm();
   const double length = std::max(std::sqrt(length2 / source.size()), 1e-3);
-  Vector6d W;
-  W << Eigen::Vector3d::Constant(length * length), Eigen::Vector3d::Ones();
+  Vector6d S;  // delta = S u
+  S << Eigen::Vector3d::Constant(1.0 / length), Eigen::Vector3d::Ones();
   const Pose guess_o = result.T_target_source;  // the guess, orthonormalised
   Pose T = result.T_target_source;
   result.status = RegistrationStatus::kMaxIterations;
@@ -144,6 +145,7 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
     // Associate and linearise at the current estimate.
     const LinearSystem sys = buildLinearSystem(source, source_normals, target, T, max_distance, scale * scale, abs_r);
     result.iterations = iteration;
+    result.weak_directions = 0;
     result.correspondences = sys.matches;
     result.inlier_ratio = static_cast<double>(sys.matches) / static_cast<double>(source.size());
     result.rms = sys.matches > 0 ? std::sqrt(sys.sum_r2 / sys.matches) : 0.0;
@@ -162,23 +164,33 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
       std::nth_element(abs_r.begin(), abs_r.begin() + abs_r.size() / 2, abs_r.end());
       scale = std::max(config.kernel_scale, 3 * 1.4826 * abs_r[abs_r.size() / 2]);
     }
-    // Motion prior: mu |e + delta|_W^2, e the deviation of the estimate from the guess so far,
-    // W weighting rotations by length^2 so both parts are displacements, mu worth a fraction of
-    // the matches. It holds what the matches cannot see (a tube's spin, a plane's slide) at the
-    // guess instead of letting noise turn it, and barely moves a well-constrained solution.
-    Matrix6d H = sys.H;
-    Vector6d g = sys.g;
+    // Solve in scaled coordinates u (rotations times `length`: all six are displacements, and an
+    // eigenvalue of the scaled H counts matched points' worth of constraint), with a motion prior
+    // mu |e + u|^2 towards the guess along the weakly constrained eigen-directions only (below
+    // config.weak_direction of the matches): a tube's spin or a plane's slide stays at the guess
+    // instead of turning with the noise, while well-constrained directions follow the scan with
+    // no lag. e is the estimate's deviation from the guess so far (Zhang et al., ICRA 2016, for
+    // the degeneracy; a soft prior instead of their hard cut).
+    const Matrix6d Hs = S.asDiagonal() * sys.H * S.asDiagonal();
+    Vector6d gs = S.asDiagonal() * sys.g;
+    Matrix6d A = Hs;
     if (config.motion_prior > 0) {
-      const double mu = config.motion_prior * sys.sum_w;
       const Pose E = T.inverse(Eigen::Isometry) * guess_o;  // T^-1 guess: identity at the start
       const Eigen::AngleAxisd aa(E.linear());
       Vector6d e;
-      e << aa.angle() * aa.axis(), E.translation();
-      H.diagonal() += mu * W;
-      g += mu * W.cwiseProduct(e);
+      e << length * aa.angle() * aa.axis(), E.translation();
+      const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(Hs);
+      const double mu = config.motion_prior * sys.sum_w;
+      for (int k = 0; k < 6; ++k) {
+        if (eig.eigenvalues()[k] >= config.weak_direction * sys.sum_w) continue;
+        const Vector6d v = eig.eigenvectors().col(k);
+        A.noalias() += mu * v * v.transpose();
+        gs.noalias() += (mu * v.dot(e)) * v;
+        ++result.weak_directions;
+      }
     }
-    H.diagonal().array() += 1e-12 * std::max(H.diagonal().maxCoeff(), 1e-300);  // numerical floor
-    Vector6d delta = -H.ldlt().solve(g);
+    A.diagonal().array() += 1e-12 * std::max(A.diagonal().maxCoeff(), 1e-300);  // numerical floor
+    Vector6d delta = S.asDiagonal() * (-A.ldlt().solve(gs));
     delta /= std::max(
         {1.0, delta.tail<3>().norm() / (0.5 * max_distance), delta.head<3>().norm() / config.max_step_rotation});
     if (!delta.allFinite()) {

@@ -74,6 +74,7 @@ TEST(TrackerOptions, DefaultCellHasTheLibraryDefaults) {
   EXPECT_EQ(o.tracker.icp.convergence_rotation, d.icp.convergence_rotation);
   EXPECT_EQ(o.tracker.icp.kernel_scale, d.icp.kernel_scale);
   EXPECT_EQ(o.tracker.icp.motion_prior, d.icp.motion_prior);
+  EXPECT_EQ(o.tracker.icp.weak_direction, d.icp.weak_direction);
   EXPECT_EQ(o.tracker.icp.max_step_rotation, d.icp.max_step_rotation);
   EXPECT_EQ(o.tracker.icp.min_correspondences, d.icp.min_correspondences);
   EXPECT_EQ(o.tracker.status.tracking_min_inlier_ratio, d.status.tracking_min_inlier_ratio);

@@ -32,8 +32,9 @@ struct IcpConfig {
   double convergence_rotation = 2e-3;      ///< rad: ...and rotates less than this (0.11 deg)
   double kernel_scale =
       0.002;                  ///< m, least Geman-McClure scale (it adapts: 3 robust sigmas of the residuals); 0 = none
-  double motion_prior = 0.1;  ///< weight of a prior towards the previous pose, as a fraction of the matches; it
-                              ///< holds what the scan cannot see (a tube's spin); 0 = none (one-off registration)
+  double motion_prior = 0.3;  ///< prior towards the previous pose along weak directions, in matches' worth;
+                              ///< it holds what the scan cannot see (a tube's spin); 0 = none (one-off use)
+  double weak_direction = 0.2;     ///< a motion constrained by less than this fraction of the matches is weak
   double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
   int min_correspondences = 12;    ///< fewer: the fit is refused (6 unknowns; keep well above)
 };

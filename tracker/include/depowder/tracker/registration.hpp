@@ -27,6 +27,7 @@ struct RegistrationResult {
   int iterations = 0;                       ///< association + solve rounds
   int correspondences = 0;                  ///< source points matched in the last round
   double inlier_ratio = 0;                  ///< correspondences / source points
+  int weak_directions = 0;                  ///< of 6, held by the motion prior in the last round
   double rms = 0;                           ///< m, RMS point-to-plane residual of the last round's matches
   bool ok() const { return status == RegistrationStatus::kConverged || status == RegistrationStatus::kMaxIterations; }
 };
@@ -37,7 +38,9 @@ struct RegistrationResult {
 /// of that target point to the source point's tangent plane, weighted by a Geman-McClure
 /// kernel whose scale adapts to the residuals (3 robust sigmas, never below
 /// config.kernel_scale). Gauss-Newton on SE(3), starting at `guess`, with a motion prior
-/// towards the guess worth config.motion_prior of the matches (0 for a one-off registration).
+/// towards the guess worth config.motion_prior of the matches along the directions the matches
+/// barely constrain (below config.weak_direction of them; motion_prior 0 for a one-off
+/// registration).
 /// config.max_correspondence_distance is not read here.
 RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
                                         const Pose& guess, double max_distance, const IcpConfig& config);
