@@ -178,9 +178,12 @@ std::optional<Plan> CellPlanner::emit(Plan plan) {
 }
 
 std::optional<Plan> CellPlanner::refresh(std::int64_t utime) {
-  if (active_waypoints_.empty() || !robot_ || robot_->plan_id != active_id_) return std::nullopt;
+  if (active_waypoints_.empty() || !robot_) return std::nullopt;
   if (static_cast<double>(utime - active_utime_) * 1e-6 < config_.replan.refresh_s) return std::nullopt;
-  const std::size_t from = static_cast<std::size_t>(std::max(0, robot_->waypoint_index));
+  // The driver runs our plan: re-send what is left of it. It runs another one (it refused ours,
+  // e.g. one that came before it had heard our heartbeat): re-send ours whole.
+  const bool running = robot_->plan_id == active_id_;
+  const std::size_t from = running ? static_cast<std::size_t>(std::max(0, robot_->waypoint_index)) : 0;
   if (from >= active_waypoints_.size()) return std::nullopt;
   Plan plan;
   plan.status = active_status_;
