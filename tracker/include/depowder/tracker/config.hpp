@@ -28,8 +28,8 @@ std::optional<Method> methodFromString(const std::string& name);
 struct IcpConfig {
   int max_iterations = 30;                 ///< per frame (the authors: 30)
   double max_correspondence_distance = 0;  ///< m; 0 = the part's xi (as the authors)
-  double convergence_translation = 2e-4;   ///< m: stop when an update moves less than this...
-  double convergence_rotation = 2e-3;      ///< rad: ...and rotates less than this (0.11 deg)
+  double convergence_translation = 5e-4;   ///< m: stop when an update moves less than this...
+  double convergence_rotation = 5e-3;      ///< rad: ...and rotates less than this (0.29 deg)
   double kernel_scale =
       0.002;                  ///< m, least Geman-McClure scale (it adapts: 3 robust sigmas of the residuals); 0 = none
   double motion_prior = 0.3;  ///< prior towards the previous pose along weak directions, in matches' worth;
