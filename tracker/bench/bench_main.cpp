@@ -2,8 +2,8 @@
 // the same frames from the same initial poses: median time per frame per part on one core,
 // rotation / translation error against ground truth, peak memory.
 //
-// Frames: the five default parts at 40..100 % visibility, each pushed slowly (0.5 mm and
-// 0.25 deg a frame), seen by the cell's two cameras, merged, cropped to the box and voxelled
+// Frames: the five default parts at 40..100 % visibility, static (the paper's Table I) or
+// pushed (--motion), seen by the cell's two cameras, merged, cropped to the box and voxelled
 // at 5 mm as the camera proxy publishes them. Source `sim` (default when sim/ is built): the
 // simulator's world (powder height field dug to the visibility, camera noise, flying pixels,
 // drop-outs). Source `synthetic`: a flat powder plane and z-buffered views (scene.hpp).
@@ -55,6 +55,8 @@ struct Options {
   std::string cell;       ///< cell YAML for the sim source ("" = the default cell)
   double init_deg = 2.0;  ///< initial pose error: rotation, deg...
   double init_mm = 3.0;   ///< ...and translation, mm (random directions, seeded)
+  double motion_mm = 0;   ///< per frame: the part slides this far along x...
+  double motion_deg = 0;  ///< ...and turns this much about z (0, 0: static, the paper's Table I)
 };
 
 // --set key=value: the TrackerConfig fields worth sweeping (how the defaults were chosen).
@@ -93,9 +95,9 @@ void applySet(TrackerConfig& c, const std::string& kv) {
 
 const char* kUsage =
     "Usage: depowder-bench [--source sim|synthetic] [--cell FILE] [--frames N] [--parts a,b]\n"
-    "                      [--methods cu,continuous,vanilla,pcl]\n"
-    "                      [--visibilities 0.4,0.7,1.0] [--noise M] [--seed N] [--set key=value]...\n"
-    "                      [--json FILE]\n"
+    "                      [--methods cu,continuous,vanilla,pcl] [--visibilities 0.4,0.7,1.0]\n"
+    "                      [--init-error DEG,MM] [--motion MM,DEG] [--no-cull] [--noise M] [--seed N]\n"
+    "                      [--set key=value]... [--json FILE]\n"
     "Tracks frames of the default parts (buried in powder, two cameras, 5 mm voxels)\n"
     "with CU-ICP, its baselines and the authors' pcl::IterativeClosestPoint configuration, all\n"
     "from the same initial poses; prints the median time per frame per part (one core), the mean\n"
@@ -109,6 +111,8 @@ const char* kUsage =
     "  --visibilities L  visibility fractions (default: 0.4,0.55,0.7,0.85,1.0)\n"
     "  --noise M         range noise sigma of the synthetic source, metres (default 0.0015)\n"
     "  --init-error D,M  initial pose error, deg and mm, random directions (default 2,3)\n"
+    "  --motion MM,DEG   per frame, the part slides MM along x and turns DEG about z (default 0,0:\n"
+    "                    static parts as in the paper's Table I)\n"
     "  --seed N          random seed (default 1)\n"
     "  --set key=value   override a tracker config field for every method, e.g.\n"
     "                    --set icp.motion_prior=0.3 (unknown keys list the known ones)\n"
@@ -155,6 +159,11 @@ bool parse(int argc, char** argv, Options& o) {
       if (v.size() != 2) throw std::invalid_argument("--init-error needs DEG,MM");
       o.init_deg = std::stod(v[0]);
       o.init_mm = std::stod(v[1]);
+    } else if (a == "--motion") {
+      const std::vector<std::string> v = splitList(value());
+      if (v.size() != 2) throw std::invalid_argument("--motion needs MM,DEG");
+      o.motion_mm = std::stod(v[0]);
+      o.motion_deg = std::stod(v[1]);
     } else if (a == "--no-cull") {
       o.cull = false;
     } else if (a == "--set") {
@@ -274,15 +283,18 @@ int main(int argc, char** argv) {
       for (const scene::Camera& c : scene::defaultCameras()) base.viewpoints.push_back(c.T_cell_camera.translation());
   }
 
+  char noise[64] = "";
+  if (opt.source == "synthetic") std::snprintf(noise, sizeof noise, ", noise %.1f mm", opt.noise * 1000);
   std::printf(
-      "depowder-bench: %zu parts x %zu visibilities x %d frames, %s frames%s\n", opt.parts.size(),
-      opt.visibilities.size(), opt.frames, opt.source.c_str(),
-      opt.source == "synthetic" ? (", noise " + std::to_string(opt.noise * 1000).substr(0, 4) + " mm").c_str() : "");
+      "depowder-bench: %zu parts x %zu visibilities x %d frames, %s frames%s, start %.1f deg / %.1f mm off, "
+      "motion %.2f mm + %.2f deg a frame\n",
+      opt.parts.size(), opt.visibilities.size(), opt.frames, opt.source.c_str(), noise, opt.init_deg, opt.init_mm,
+      opt.motion_mm, opt.motion_deg);
   for (const std::string& name : opt.parts) {
     const Mesh mesh = parts::byName(name);
     const double xi = xiFor(name);
     for (const double vis : opt.visibilities) {
-      // Ground truth: resting in the box at a random yaw, pushed slowly along x while turning.
+      // Ground truth: resting in the box at a random yaw; static, or pushed along x while turning.
       std::uniform_real_distribution<double> u(-1.0, 1.0);
       const Pose T0 = scene::restingPose(mesh, 0.02 * u(rng), 0.02 * u(rng), 0, 0, M_PI * u(rng));
       const double powder_z = scene::powderHeightFor(mesh, T0, vis);
@@ -290,8 +302,8 @@ int main(int argc, char** argv) {
       std::vector<Cloud> frames;
       for (int k = 0; k < opt.frames; ++k) {
         Pose T = T0;
-        T.translation().x() += 0.0005 * k;
-        T.linear() = Eigen::AngleAxisd(0.25 * M_PI / 180 * k, Eigen::Vector3d::UnitZ()) * T0.linear();
+        T.translation().x() += 0.001 * opt.motion_mm * k;
+        T.linear() = Eigen::AngleAxisd(opt.motion_deg * M_PI / 180 * k, Eigen::Vector3d::UnitZ()) * T0.linear();
         truth.push_back(T);
         if (opt.source == "synthetic") frames.push_back(scene::render({{&mesh, T}}, powder_z, scene_config, rng));
       }
@@ -421,6 +433,8 @@ int main(int argc, char** argv) {
     };
     out << "{\n  \"source\": \"" << opt.source << "\",\n  \"frames\": " << (have_cu ? sum["cu"].frames : 0) << ",\n";
     out << "  \"frames_per_sequence\": " << opt.frames << ",\n";
+    out << "  \"init_error_deg_mm\": [" << num(opt.init_deg) << ", " << num(opt.init_mm) << "],\n";
+    out << "  \"motion_mm_deg_per_frame\": [" << num(opt.motion_mm) << ", " << num(opt.motion_deg) << "],\n";
     out << "  \"cu_icp_ms_median\": " << num(have_cu ? sum["cu"].ms_median : NAN) << ",\n";
     out << "  \"pcl_icp_ms_median\": " << num(have_pcl ? sum["pcl"].ms_median : NAN) << ",\n";
     out << "  \"speedup\": " << num(speedup) << ",\n";
