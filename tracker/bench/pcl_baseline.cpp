@@ -80,7 +80,9 @@ PclFrame PclTracker::track(const Cloud& scan) {
   if (crop.size() >= 3) {
     const ScanIndex grid(crop, m.xi);
     if (!m.started) {
+      const auto p0 = std::chrono::steady_clock::now();
       const double eta = m.etaAt(m.T_init, crop);
+      out.progress_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - p0).count();
       if (!std::isnan(eta) && eta > m.config.eta1) {
         m.started = true;
         m.eta = eta;
@@ -101,7 +103,9 @@ PclFrame PclTracker::track(const Cloud& scan) {
       T.linear() = orthonormalized(T.linear());
       if (T.matrix().allFinite()) m.T = T;
       // Lines 10-16: the same Eq. 2 and Eq. 1 code as CU-ICP.
+      const auto p0 = std::chrono::steady_clock::now();
       if (const double eta = m.etaAt(m.T, crop); !std::isnan(eta)) m.eta = eta;
+      out.progress_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - p0).count();
       if (decideTemplateUpdate(Method::kCu, m.T, m.eta, m.last, thresholdsOf(m.config)).update) {
         m.setTemplate(deriveTemplate(m.cad.points, m.T, grid, m.xi));
         m.last = {m.T, m.eta};

@@ -21,6 +21,7 @@ struct PclFrame {
   int iterations = 0;      ///< not exposed by pcl::IterativeClosestPoint: 0
   double ms = 0;           ///< wall time of the whole frame
   double register_ms = 0;  ///< wall time of the registration step: crop, conversion, kd-tree and ICP
+  double progress_ms = 0;  ///< wall time of the Eq. 2 calls (the same library call as CU-ICP's)
 };
 
 class PclTracker {
