@@ -28,7 +28,12 @@ const char* kUsage =
     "  static   Table I: a still part at each visibility, the nozzle circling it; mean errors\n"
     "  speed    Fig. 10: linear actuator and turntable at increasing speed; highest speed tracked\n"
     "  report   static + speed for the five default parts and three methods -> DIR/results.md + PNGs\n"
-    "  (moving, Table II, needs the simulator's rigid-body physics, which does not exist yet)\n"
+#ifdef DEPOWDER_EVAL_MOVING
+    "  moving   Table II: the nozzle pushes the part to the box wall from seeded contact points\n"
+    "  report   static + speed + moving for the five default parts and three methods\n"
+#else
+    "  (moving, Table II, needs the simulator's rigid-body physics, which this build does not have)\n"
+#endif
     "options:\n"
     "  --part NAME[,NAME]     default parts (cube, cup, propeller, owl, pipe; default: all five)\n"
     "  --mesh FILE --xi M     any mesh (STL/OBJ/PLY) instead, with its template distance xi (m)\n"
@@ -36,6 +41,7 @@ const char* kUsage =
     "  --methods LIST         cu,continuous,vanilla (default: all three)\n"
     "  --trials N             seeded trials per part and visibility (static 5, speed 2)\n"
     "  --speed-trials N       report: trials of the speed experiment (default 2)\n"
+    "  --moving-trials N      report: pushes per part of the moving experiment (default 5)\n"
     "  --seed S               (default 1)\n"
     "  --visibilities LIST    e.g. 0.2,0.4,0.6,0.8,1.0 (the default)\n"
     "  --duration S           static: seconds of frames per trial (default 2.5)\n"
@@ -77,7 +83,7 @@ struct Args {
   std::string mesh, json, cell, out = "docs", from, notes;
   double xi = 0, mesh_scale = 1;
   std::vector<tracker::Method> methods{tracker::Method::kCu, tracker::Method::kContinuous, tracker::Method::kVanilla};
-  int trials = 0, speed_trials = 0;
+  int trials = 0, speed_trials = 0, moving_trials = 0;
   std::uint32_t seed = 1;
   std::vector<double> visibilities;
   double duration = 0;
@@ -121,10 +127,10 @@ Args parse(int argc, char** argv) {
         a.methods.push_back(*method);
       }
       if (a.methods.empty()) throw std::invalid_argument("--methods: empty list");
-    } else if (f == "--trials" || f == "--speed-trials") {
+    } else if (f == "--trials" || f == "--speed-trials" || f == "--moving-trials") {
       const double n = number(f, v);
       if (!(n >= 1 && n <= 1000 && n == std::floor(n))) throw std::invalid_argument(f + " must be an integer 1..1000");
-      (f == "--trials" ? a.trials : a.speed_trials) = static_cast<int>(n);
+      (f == "--trials" ? a.trials : f == "--speed-trials" ? a.speed_trials : a.moving_trials) = static_cast<int>(n);
     } else if (f == "--seed") {
       const double s = number(f, v);
       if (!(s >= 0 && s <= 4294967295.0 && s == std::floor(s)))
@@ -223,6 +229,23 @@ SpeedOptions speedOptions(const Args& a, int trials) {
   return o;
 }
 
+#ifdef DEPOWDER_EVAL_MOVING
+MovingOptions movingOptions(const Args& a, int trials) {
+  MovingOptions o;
+  if (trials > 0) o.trials = trials;
+  o.seed = a.seed;
+  return o;
+}
+
+void printMoving(const MovingResult& r) {
+  std::printf("%-10s %-11s %5s %8s %12s %12s %9s\n", "part", "method", "vis", "success", "final deg", "final cm",
+              "moved cm");
+  for (const MovingRow& row : r.rows)
+    std::printf("%-10s %-11s %4.0f%% %7.0f%% %12.2f %12.3f %9.1f\n", row.part.c_str(), row.method.c_str(),
+                row.visibility * 100, row.success * 100, row.final_rot_err_deg, row.final_trans_err_cm, row.moved_cm);
+}
+#endif
+
 void save(const std::string& path, const Json& doc) {
   if (path.empty()) return;
   writeJsonFile(path, doc);
@@ -273,7 +296,11 @@ int run(const Args& a) {
   node::installShutdownHandlers();
   if (a.command == "report" && !a.from.empty()) {
     const Json doc = readJsonFile(a.from);
-    ReportInputs in{doc.at("static"), doc.at("speed"), kMovingNote, doc.at("command").string(),
+    ReportInputs in{doc.at("static"),
+                    doc.at("speed"),
+                    doc.has("moving") ? doc.at("moving") : Json(),
+                    kMovingNote,
+                    doc.at("command").string(),
                     readText(a.notes.empty() ? defaultNotesPath() : a.notes)};
     for (const std::string& f : writeReport(in, a.out)) std::cerr << "depowder-eval: wrote " << f << "\n";
     return 0;
@@ -297,6 +324,16 @@ int run(const Args& a) {
     printSpeed(r);
     save(a.json, toJson(r, o));
     interrupted = r.interrupted;
+#ifdef DEPOWDER_EVAL_MOVING
+  } else if (a.command == "moving") {
+    ProgressBar bar("moving", !a.quiet);
+    const MovingOptions o = movingOptions(a, a.trials);
+    const MovingResult r = runMoving(cell, parts, a.methods, o, control(bar));
+    bar.finish();
+    printMoving(r);
+    save(a.json, toJson(r, o));
+    interrupted = r.interrupted;
+#endif
   } else if (a.command == "report") {
     const StaticOptions so = staticOptions(a);
     const SpeedOptions po = speedOptions(a, a.speed_trials);
@@ -313,6 +350,18 @@ int run(const Args& a) {
     }
     printSpeed(pr);
     interrupted = sr.interrupted || pr.interrupted;
+    Json moving_doc;
+#ifdef DEPOWDER_EVAL_MOVING
+    const MovingOptions mo = movingOptions(a, a.moving_trials);
+    MovingResult mr;
+    if (!interrupted) {
+      ProgressBar bar("report 3/3 moving", !a.quiet);
+      mr = runMoving(cell, parts, a.methods, mo, control(bar));
+      printMoving(mr);
+      interrupted = mr.interrupted;
+      moving_doc = toJson(mr, mo);
+    }
+#endif
     const Json static_doc = toJson(sr, so);
     const Json speed_doc = (sr.interrupted && pr.rows.empty()) ? Json() : toJson(pr, po);
     Json doc = Json::object();
@@ -322,9 +371,10 @@ int run(const Args& a) {
     doc.set("interrupted", interrupted);
     doc.set("static", static_doc);
     doc.set("speed", speed_doc);
+    doc.set("moving", moving_doc);
     save(a.json, doc);
-    ReportInputs in{static_doc, speed_doc, kMovingNote, a.command_line,
-                    readText(a.notes.empty() ? defaultNotesPath() : a.notes)};
+    ReportInputs in{static_doc,  speed_doc,      moving_doc,
+                    kMovingNote, a.command_line, readText(a.notes.empty() ? defaultNotesPath() : a.notes)};
     for (const std::string& f : writeReport(in, a.out)) std::cerr << "depowder-eval: wrote " << f << "\n";
   } else {
     return usage("unknown command '" + a.command + "'");
@@ -342,10 +392,12 @@ int main(int argc, char** argv) {
   if (argc < 2) return usage("missing command");
   const std::string cmd = argv[1];
   if (cmd == "--help" || cmd == "-h" || cmd == "help") return usage();
+#ifndef DEPOWDER_EVAL_MOVING
   if (cmd == "moving")
     return usage(
-        "moving (Table II) needs the simulator's rigid-body physics (pushing through powder), which sim/ does not "
-        "have yet");
+        "moving (Table II) needs the simulator's rigid-body physics (pushing through powder), which this build of "
+        "sim/ does not have");
+#endif
   try {
     return run(parse(argc, argv));
   } catch (const std::exception& e) {

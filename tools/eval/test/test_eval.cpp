@@ -211,7 +211,7 @@ TEST(EvalReport, TablesCarryOursAndThePapers) {
     rows.push(r);
   }
   s.set("rows", rows);
-  ReportInputs in{s, Json(), "not run", "depowder-eval report", "## Notes\n"};
+  ReportInputs in{s, Json(), Json(), "not run", "depowder-eval report", "## Notes\n"};
   const std::string md = reportMarkdown(in, {});
   EXPECT_NE(md.find("**1.23** (1.69)"), std::string::npos) << md;  // ours, best, then the paper's cube 40 %
   EXPECT_NE(md.find("9.00 (3.76)"), std::string::npos) << md;      // Continuous ICP, paper 3.76
@@ -235,8 +235,35 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   EXPECT_LT(doc.at("rows").at(0).at("trans_err_cm").number(), 0.6);
   std::remove(json.c_str());
   for (const std::string bad : {" static --methods icp", " static --part teapot", " static --trials 0",
-                                " static --mesh x.stl", " frobnicate", " moving"}) {
+                                " static --mesh x.stl", " frobnicate"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }
 }
+
+#ifdef DEPOWDER_EVAL_MOVING
+TEST(EvalMoving, ShortPushShapeAndBounds) {
+  const EvalCell cell = testCell();
+  MovingOptions o;
+  o.trials = 1;
+  o.seed = 5;
+  o.max_duration = 12;
+  const MovingResult r = runMoving(cell, {defaultPart("cube")}, allMethods(), o);
+  ASSERT_FALSE(r.interrupted);
+  ASSERT_EQ(r.rows.size(), 3u);
+  const Json doc = Json::parse(toJson(r, o).dump());
+  EXPECT_EQ(doc.at("experiment").string(), "moving");
+  for (const Json& row : doc.at("rows").elements()) {
+    for (const char* key : {"success", "final_rot_err_deg", "final_trans_err_cm", "visibility", "moved_cm"})
+      expectNumber(row, key);
+    EXPECT_GE(row.at("success").number(), 0.0);
+    EXPECT_LE(row.at("success").number(), 1.0);
+    EXPECT_GE(row.at("visibility").number(), 0.35);
+    EXPECT_LE(row.at("visibility").number(), 0.65);
+  }
+  const Json* cu = findRow(doc, "cu");
+  ASSERT_NE(cu, nullptr);
+  EXPECT_GT(cu->at("moved_cm").number(), 1.0);  // the push moved the part
+  EXPECT_EQ(cu->at("success").number(), 1.0);   // and CU-ICP followed it (15 deg / 15 mm)
+}
+#endif

@@ -104,6 +104,41 @@ struct SpeedRow {
   double min_rot_tried_deg_s = 0, max_rot_tried_deg_s = 0;
 };
 
+struct MovingOptions {
+  int trials = 5;               ///< per part: seeded contact points (the paper: 5)
+  double min_visibility = 0.4;  ///< initial visibility, uniform in [min, max] (the paper: about 40 to 60 %)
+  double max_visibility = 0.6;
+  double contact_above = 0.1;  ///< the contact point is at least this fraction of the part's height above the powder
+  double max_offset_fraction = 0.25;  ///< sideways offset of the push line, up to this x the part's xy diagonal
+  double push_speed = 0.02;           ///< m/s of the nozzle while pushing
+  bool dig_path = true;               ///< dig the powder to the visibility's level along the push path to the wall
+  double dig_step = 0.01;             ///< m between the poses the path is dug at
+  double max_duration = 30;           ///< s of simulated time at most per trial
+  double success_rot_deg = 15;        ///< Table II: final error within 15 deg...
+  double success_trans = 0.015;       ///< ... and 15 mm
+  double bottom_z = 0.03;
+  std::uint32_t seed = 1;
+};
+
+/// One row of Table II: a part and a method over the trials.
+struct MovingRow {
+  std::string part, method;
+  double visibility = 0;  ///< initial true eta, mean over trials
+  int trials = 0;
+  double success = 0;                                    ///< rate, 0..1
+  double final_rot_err_deg = 0, final_trans_err_cm = 0;  ///< means over trials
+  double moved_cm = 0, turned_deg = 0;                   ///< how far the push took the part, mean
+  std::vector<int> trial_success;
+  std::vector<double> trial_final_rot_err_deg, trial_final_trans_err_cm, trial_visibility, trial_moved_cm,
+      trial_turned_deg;
+  std::vector<std::string> trial_outcome;  ///< how each push ended (sim::PushOutcome)
+};
+
+struct MovingResult {
+  std::vector<MovingRow> rows;
+  bool interrupted = false;
+};
+
 /// The tracker config of an experiment: defaults, the method, the cell's cameras as viewpoints,
 /// and eta1 = 0 (ICP at every visibility; the paper reports errors at 20 % too).
 tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell& cell);
@@ -123,6 +158,12 @@ struct SpeedResult {
 SpeedResult runSpeed(const EvalCell& cell, const std::vector<EvalPart>& parts,
                      const std::vector<tracker::Method>& methods, const SpeedOptions& options,
                      const RunControl& control = {});
+
+/// Needs the simulator's physics (built only when sim/ has it: DEPOWDER_EVAL_MOVING).
+MovingResult runMoving(const EvalCell& cell, const std::vector<EvalPart>& parts,
+                       const std::vector<tracker::Method>& methods, const MovingOptions& options,
+                       const RunControl& control = {});
+Json toJson(const MovingResult& result, const MovingOptions& options);
 
 /// {"experiment": "static", "seed", "interrupted", "options", "rows": [...]} (keys of each row
 /// as the issue lists them, plus the extra figures above).

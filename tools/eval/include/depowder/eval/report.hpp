@@ -12,6 +12,7 @@ namespace depowder::eval {
 struct ReportInputs {
   Json static_doc;          ///< toJson(StaticResult) (null: not run)
   Json speed_doc;           ///< toJson(SpeedResult) (null: not run)
+  Json moving_doc;          ///< toJson(MovingResult) (null: not run)
   std::string moving_note;  ///< why Table II was not reproduced (empty: nothing said)
   std::string command;      ///< the command that produced the documents
   std::string notes;        ///< markdown appended verbatim (the analysis written by hand)
