@@ -298,7 +298,9 @@ std::optional<Plan> CellPlanner::step() {
                            (progress.status_reason.empty() ? "" : ": " + progress.status_reason);
     }
     if (same) {
-      request.powder_height = active_powder_;
+      // Keep the loop's layer, unless the powder is already lower than it (regenerations for a
+      // jittering pose can come faster than a loop finishes: the layer must still follow the powder).
+      request.powder_height = std::isfinite(s.powder) ? std::min(active_powder_, s.powder) : active_powder_;
     } else if (std::isfinite(s.powder)) {
       request.powder_height = s.powder;
     } else {
