@@ -51,6 +51,7 @@ const char* kUsage =
     "  --from FILE            report: rebuild DIR/results.md from a JSON file that report --json wrote\n"
     "  --notes FILE           report: markdown appended verbatim (default tools/eval/report_notes.md)\n"
     "  --no-nozzle            static: no nozzle in the cell (what its occlusion and interference cost)\n"
+    "  --set KEY=VALUE        a tracker setting for every method (e.g. icp.motion_prior=0); repeatable\n"
     "  --quiet                no progress bar\n";
 
 int usage(const std::string& error = "") {
@@ -88,7 +89,8 @@ struct Args {
   std::vector<double> visibilities;
   double duration = 0;
   bool quiet = false, no_nozzle = false;
-  std::string command_line;  ///< as typed, for the report
+  std::vector<std::pair<std::string, double>> sets;  ///< --set key=value
+  std::string command_line;                          ///< as typed, for the report
 };
 
 Args parse(int argc, char** argv) {
@@ -145,6 +147,14 @@ Args parse(int argc, char** argv) {
     } else if (f == "--duration") {
       a.duration = number(f, v);
       if (!(a.duration > 0 && a.duration <= 600)) throw std::invalid_argument("--duration must be in (0, 600] s");
+    } else if (f == "--set") {
+      const std::size_t eq = v.find('=');
+      if (eq == std::string::npos) throw std::invalid_argument("--set needs KEY=VALUE, got '" + v + "'");
+      const std::string key = v.substr(0, eq);
+      const double value = number("--set " + key, v.substr(eq + 1));
+      tracker::TrackerConfig probe = baseTrackerConfig();
+      setTrackerField(probe, key, value);  // rejects an unknown key or a bad value now
+      a.sets.emplace_back(key, value);
     } else if (f == "--cell") {
       a.cell = v;
     } else if (f == "--json") {
@@ -184,6 +194,7 @@ EvalCell loadEvalCell(const std::string& path) {
     out.cameras.push_back(m);
   }
   if (out.cameras.empty()) throw std::invalid_argument(cell.file + ": no cameras");
+  out.tracker = baseTrackerConfig();
   if (!out.cameras.empty()) out.fps = out.cameras.front().rate_hz;
   return out;
 }
@@ -246,8 +257,15 @@ void printMoving(const MovingResult& r) {
 }
 #endif
 
-void save(const std::string& path, const Json& doc) {
+Json setsJson(const Args& a) {
+  Json j = Json::object();
+  for (const auto& [key, value] : a.sets) j.set(key, value);
+  return j;
+}
+
+void save(const std::string& path, Json doc, const Args& a) {
   if (path.empty()) return;
+  doc.set("tracker_set", setsJson(a));
   writeJsonFile(path, doc);
   std::cerr << "depowder-eval: wrote " << path << "\n";
 }
@@ -305,7 +323,8 @@ int run(const Args& a) {
     for (const std::string& f : writeReport(in, a.out)) std::cerr << "depowder-eval: wrote " << f << "\n";
     return 0;
   }
-  const EvalCell cell = loadEvalCell(a.cell);
+  EvalCell cell = loadEvalCell(a.cell);
+  for (const auto& [key, value] : a.sets) setTrackerField(cell.tracker, key, value);
   const std::vector<EvalPart> parts = partsOf(a);
   bool interrupted = false;
   if (a.command == "static") {
@@ -314,7 +333,7 @@ int run(const Args& a) {
     const StaticResult r = runStatic(cell, parts, a.methods, o, control(bar));
     bar.finish();
     printStatic(r);
-    save(a.json, toJson(r, o));
+    save(a.json, toJson(r, o), a);
     interrupted = r.interrupted;
   } else if (a.command == "speed") {
     ProgressBar bar("speed", !a.quiet);
@@ -322,7 +341,7 @@ int run(const Args& a) {
     const SpeedResult r = runSpeed(cell, parts, a.methods, o, control(bar));
     bar.finish();
     printSpeed(r);
-    save(a.json, toJson(r, o));
+    save(a.json, toJson(r, o), a);
     interrupted = r.interrupted;
 #ifdef DEPOWDER_EVAL_MOVING
   } else if (a.command == "moving") {
@@ -331,7 +350,7 @@ int run(const Args& a) {
     const MovingResult r = runMoving(cell, parts, a.methods, o, control(bar));
     bar.finish();
     printMoving(r);
-    save(a.json, toJson(r, o));
+    save(a.json, toJson(r, o), a);
     interrupted = r.interrupted;
 #endif
   } else if (a.command == "report") {
@@ -372,7 +391,7 @@ int run(const Args& a) {
     doc.set("static", static_doc);
     doc.set("speed", speed_doc);
     doc.set("moving", moving_doc);
-    save(a.json, doc);
+    save(a.json, doc, a);
     ReportInputs in{static_doc,  speed_doc,      moving_doc,
                     kMovingNote, a.command_line, readText(a.notes.empty() ? defaultNotesPath() : a.notes)};
     for (const std::string& f : writeReport(in, a.out)) std::cerr << "depowder-eval: wrote " << f << "\n";

@@ -36,6 +36,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       const double yaw = 2 * M_PI * unit(rng);
       const double visibility = o.min_visibility + (o.max_visibility - o.min_visibility) * unit(rng);
       const double lo = std::min(0.95, 1.0 - visibility + o.contact_above);
+      const double hi = std::min(0.95, lo + o.contact_band);
       const Pose T0 = placePart(part.mesh, yaw, {0.0, 0.0}, o.bottom_z);
       sim::World world(cell.sim, cell.box, {{part.name, part.mesh, T0, 1000}}, cell.cameras, seed);
       world.digToVisibility(0, visibility);
@@ -45,7 +46,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       bool hit = false;
       for (int attempt = 0; attempt < 100 && !hit; ++attempt) {
         const double azimuth = 360.0 * unit(rng);
-        const double height = lo + (0.95 - lo) * unit(rng);
+        const double height = lo + (hi - lo) * unit(rng);
         const double offset = o.max_offset_fraction * size * (2 * unit(rng) - 1);
         try {
           spec = sim::pushFrom(world, 0, azimuth, height, offset);

@@ -235,7 +235,7 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   EXPECT_LT(doc.at("rows").at(0).at("trans_err_cm").number(), 0.6);
   std::remove(json.c_str());
   for (const std::string bad : {" static --methods icp", " static --part teapot", " static --trials 0",
-                                " static --mesh x.stl", " frobnicate"}) {
+                                " static --mesh x.stl", " static --set icp.nothing=1", " frobnicate"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }
@@ -267,3 +267,14 @@ TEST(EvalMoving, ShortPushShapeAndBounds) {
   EXPECT_EQ(cu->at("success").number(), 1.0);   // and CU-ICP followed it (15 deg / 15 mm)
 }
 #endif
+
+TEST(EvalTrackerSet, KnownKeysOnlyAndValidated) {
+  tracker::TrackerConfig c = baseTrackerConfig();
+  EXPECT_EQ(c.eta1, 0.0);  // ICP at every visibility in the experiments
+  setTrackerField(c, "icp.motion_prior", 0.0);
+  EXPECT_EQ(c.icp.motion_prior, 0.0);
+  setTrackerField(c, "icp.max_iterations", 12);
+  EXPECT_EQ(c.icp.max_iterations, 12);
+  EXPECT_THROW(setTrackerField(c, "icp.teleport", 1.0), std::invalid_argument);
+  EXPECT_THROW(setTrackerField(c, "delta3", 2.0), std::invalid_argument);  // out of (0, 1]
+}

@@ -108,7 +108,9 @@ struct MovingOptions {
   int trials = 5;               ///< per part: seeded contact points (the paper: 5)
   double min_visibility = 0.4;  ///< initial visibility, uniform in [min, max] (the paper: about 40 to 60 %)
   double max_visibility = 0.6;
-  double contact_above = 0.1;  ///< the contact point is at least this fraction of the part's height above the powder
+  double contact_above =
+      0.05;                   ///< the contact point is at least this fraction of the part's height above the powder...
+  double contact_band = 0.2;  ///< ... and at most this fraction above that (low pushes slide, high ones topple)
   double max_offset_fraction = 0.25;  ///< sideways offset of the push line, up to this x the part's xy diagonal
   double push_speed = 0.02;           ///< m/s of the nozzle while pushing
   bool dig_path = true;               ///< dig the powder to the visibility's level along the push path to the wall
@@ -139,8 +141,8 @@ struct MovingResult {
   bool interrupted = false;
 };
 
-/// The tracker config of an experiment: defaults, the method, the cell's cameras as viewpoints,
-/// and eta1 = 0 (ICP at every visibility; the paper reports errors at 20 % too).
+/// The tracker config of an experiment: cell.tracker (baseTrackerConfig() unless changed), the
+/// method, and the cell's cameras as viewpoints.
 tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell& cell);
 
 struct StaticResult {

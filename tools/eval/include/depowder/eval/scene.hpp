@@ -11,16 +11,26 @@
 #include "depowder/mesh.hpp"
 #include "depowder/perception/camera_proxy.hpp"
 #include "depowder/sim/world.hpp"
+#include "depowder/tracker/config.hpp"
 
 namespace depowder::eval {
+
+/// The trackers' settings in every experiment: the library's defaults except eta1 = 0 (ICP at
+/// every visibility; the paper reports errors at 20 % too).
+tracker::TrackerConfig baseTrackerConfig();
+
+/// Sets a TrackerConfig field by its YAML-style name ("icp.motion_prior", "delta1_deg", ...);
+/// throws std::invalid_argument naming the known keys, or the field and its range if invalid.
+void setTrackerField(tracker::TrackerConfig& config, const std::string& key, double value);
 
 struct EvalCell {
   sim::BoxGeometry box;
   std::vector<sim::CameraModel> cameras;
-  sim::SimConfig sim;                       ///< simulator defaults unless the caller changes them
-  perception::PerceptionConfig perception;  ///< the camera process's defaults
-  double fps = 30;                          ///< camera frames per simulated second (L515: 30)
-  double step_hz = 120;                     ///< world steps per simulated second (as depowder-sim)
+  sim::SimConfig sim;                                    ///< simulator defaults unless the caller changes them
+  perception::PerceptionConfig perception;               ///< the camera process's defaults
+  double fps = 30;                                       ///< camera frames per simulated second (L515: 30)
+  double step_hz = 120;                                  ///< world steps per simulated second (as depowder-sim)
+  tracker::TrackerConfig tracker = baseTrackerConfig();  ///< every method starts from this (method, viewpoints set)
 };
 
 struct EvalPart {
