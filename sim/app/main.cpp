@@ -132,6 +132,8 @@ int main(int argc, char** argv) {
     if (!arm_choice.empty()) setup.arm = arm_choice;
     NozzleScript script(setup.script, setup.script_loop);
     ArmSource* arm = &script;
+    std::unique_ptr<PushScript> push = makePushScript(setup, *world);  // sim.push: the nozzle pushes a part
+    if (push) arm = push.get();
     // With `arm: emulator` the nozzle is the arm's: depowder-driver moves it over b-CAP.
     std::unique_ptr<BcapEmulator> emulator;
     std::unique_ptr<EmulatedArm> emulated;

@@ -61,6 +61,77 @@ std::vector<Waypoint> readWaypoints(const YamlReader& r, const std::string& key)
   return out;
 }
 
+bool knownPart(const SimSetup& out, const std::string& name) {
+  for (const auto& part : out.parts)
+    if (part.name == name) return true;
+  return false;
+}
+
+void readPhysics(const YamlReader& r, PhysicsConfig& p) {
+  r.read("enabled", p.enabled);
+  r.read("substep_hz", p.substep_hz, 60.0, 20000.0);
+  r.read("gravity", p.gravity, 0.0, 100.0);
+  r.read("friction", p.friction, 0.0, 5.0);
+  r.read("nozzle_friction", p.nozzle_friction, 0.0, 5.0);
+  r.read("restitution", p.restitution, 0.0, 1.0);
+  r.read("margin", p.margin, 0.0, 0.01);
+  r.read("solver_iterations", p.solver_iterations, 1, 1000);
+  r.read("contact_distance", p.contact_distance, 0.0, 0.05);
+  r.read("mass_voxel", p.mass_voxel, 0.0002, 0.01);
+  const YamlReader d = r.child("decomposition");
+  d.read("voxel", p.decomposition.voxel, 0.0005, 0.02);
+  d.read("tolerance", p.decomposition.tolerance, 0.0, 10.0);
+  d.read("max_pieces", p.decomposition.max_pieces, 1, 256);
+  d.finish();
+  PowderForceConfig& f = p.powder;
+  const YamlReader pr = r.child("powder");
+  pr.read("density", f.density, 0.0, 20000.0);
+  pr.read("bearing_factor", f.bearing_factor, 0.0, 1000.0);
+  pr.read("passive_factor", f.passive_factor, 0.0, 1000.0);
+  pr.read("shear_factor", f.shear_factor, 0.0, 10.0);
+  pr.read("lateral_pressure", f.lateral_pressure, 0.0, 2.0);
+  pr.read("drag_speed", f.drag_speed, 1e-4, 100.0);
+  pr.read("footing_depth", f.footing_depth, 0.0, 0.1);
+  pr.read("sample_spacing", f.sample_spacing, 0.001, 0.05);
+  pr.read("iterations", f.iterations, 1, 1000);
+  pr.read("displace", f.displace);
+  pr.finish();
+  r.finish();
+}
+
+void readMotions(const YamlReader& s, SimSetup& out) {
+  for (const YamlReader& item : s.items("motions")) {
+    SimSetup::PartMotion m;
+    item.require("part", m.part);
+    if (!knownPart(out, m.part)) item.fail("part", "names no part of the cell ('" + m.part + "')");
+    if (item.has("linear") == item.has("turntable")) item.fail("", "needs exactly one of 'linear' or 'turntable'");
+    if (item.has("linear")) {
+      const YamlReader l = item.child("linear");
+      m.motion.kind = Motion::Kind::kLinear;
+      if (!l.has("velocity")) l.fail("velocity", "is required");
+      l.readVector3("velocity", m.motion.velocity);
+      if (m.motion.velocity.norm() > 10) l.fail("velocity", "is faster than 10 m/s");
+      l.finish();
+    } else {
+      const YamlReader t = item.child("turntable");
+      m.motion.kind = Motion::Kind::kTurntable;
+      double rate_deg = 0;
+      t.require("rate_deg", rate_deg);
+      t.read("rate_deg", rate_deg, -3600.0, 3600.0);
+      m.motion.rate = rate_deg * M_PI / 180.0;
+      if (t.has("centre")) m.motion.centre = readVector2(t, "centre", Eigen::Vector2d::Zero());
+      t.finish();
+    }
+    item.read("start", m.motion.start, 0.0, 1e6);
+    double duration = -1;  // -1: until the end
+    item.read("duration", duration, -1.0, 1e6);
+    if (duration >= 0) m.motion.duration = duration;
+    item.read("visibility", m.motion.visibility, -1.0, 1.0);
+    item.finish();
+    out.motions.push_back(m);
+  }
+}
+
 void readSimSection(const YamlReader& s, SimSetup& out) {
   int seed = static_cast<int>(out.seed);
   s.read("seed", seed, 0, 2147483647);
@@ -132,6 +203,30 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
   cr.read("flying_edge", flying_edge, 0.0, 1.0);
   for (auto& cam : out.cameras) cam.noise.flying_edge = flying_edge;
   cr.finish();
+
+  readPhysics(s.child("physics"), out.config.physics);
+  readMotions(s, out);
+  if (s.has("push")) {
+    const YamlReader push_reader = s.child("push");
+    SimSetup::Push push;
+    push_reader.require("part", push.part);
+    if (!knownPart(out, push.part)) push_reader.fail("part", "names no part of the cell ('" + push.part + "')");
+    push_reader.read("azimuth_deg", push.azimuth_deg, -360.0, 360.0);
+    push_reader.read("height", push.height, 0.0, 1.0);
+    push_reader.read("offset", push.offset, -0.5, 0.5);
+    PushSpec& spec = push.spec;
+    push_reader.read("speed", spec.speed, 1e-4, 1.0);
+    push_reader.read("approach_speed", spec.approach_speed, 1e-4, 1.0);
+    push_reader.read("clearance", spec.clearance, 0.0, 0.5);
+    push_reader.read("gap", spec.gap, 0.0, 0.1);
+    push_reader.read("tip_below", spec.tip_below, 0.0, 0.1);
+    push_reader.read("wall_gap", spec.wall_gap, 0.0, 0.05);
+    push_reader.read("stall_time", spec.stall_time, 0.1, 600.0);
+    push_reader.read("settle", spec.settle, 0.0, 600.0);
+    push_reader.read("steer", spec.steer);
+    push_reader.finish();
+    out.push = push;
+  }
 
   s.readChoice("arm", out.arm, {"script", "emulator"});
   s.read("emulator_bind", out.emulator_bind);
@@ -213,7 +308,25 @@ std::unique_ptr<World> makeWorld(const SimSetup& setup) {
   }
   if (!setup.visibility_part.empty())
     world->digToVisibility(world->partIndex(setup.visibility_part), setup.visibility_eta);
+  for (const auto& m : setup.motions) world->setPartMotion(world->partIndex(m.part), m.motion);
   return world;
+}
+
+std::unique_ptr<PushScript> makePushScript(const SimSetup& setup, const World& world) {
+  if (!setup.push) return nullptr;
+  const SimSetup::Push& p = *setup.push;
+  PushSpec spec = pushFrom(world, world.partIndex(p.part), p.azimuth_deg, p.height, p.offset);
+  const PushSpec& s = p.spec;
+  spec.speed = s.speed;
+  spec.approach_speed = s.approach_speed;
+  spec.clearance = s.clearance;
+  spec.gap = s.gap;
+  spec.tip_below = s.tip_below;
+  spec.wall_gap = s.wall_gap;
+  spec.stall_time = s.stall_time;
+  spec.settle = s.settle;
+  spec.steer = s.steer;
+  return std::make_unique<PushScript>(world, spec);
 }
 
 }  // namespace depowder::sim

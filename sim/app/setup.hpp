@@ -5,10 +5,12 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "depowder/node/cell.hpp"
+#include "depowder/sim/push.hpp"
 #include "depowder/sim/script.hpp"
 #include "depowder/sim/world.hpp"
 
@@ -34,6 +36,19 @@ struct SimSetup {
   bool script_loop = true;
   std::string arm = "script";               ///< what moves the nozzle: "script" or "emulator" (the b-CAP controller)
   std::string emulator_bind = "127.0.0.1";  ///< address the b-CAP emulator listens on (0.0.0.0: every interface)
+  struct PartMotion {
+    std::string part;
+    Motion motion;
+  };
+  std::vector<PartMotion> motions;  ///< sim.motions: scripted part motions (linear actuator, turntable)
+  struct Push {
+    std::string part;
+    double azimuth_deg = 180;  ///< side the nozzle comes from (0: +x, counter-clockwise from above)
+    double height = 0.5;       ///< contact height, 0 = the part's bottom, 1 = its top
+    double offset = 0;         ///< m off the part's centre, to the left of the push direction
+    PushSpec spec;             ///< speeds, gaps (the contact point and direction come from the three above)
+  };
+  std::optional<Push> push;  ///< sim.push: the nozzle pushes a part to the box edge (with arm: script)
 };
 
 /// Reads `cell_path`; `scenario_path` (optional) is either a full cell file used instead, or a file
@@ -41,7 +56,10 @@ struct SimSetup {
 /// node::ConfigError (file, key, range) or MeshError (file).
 SimSetup loadSimSetup(const std::string& cell_path, const std::string& scenario_path = "");
 
-/// The world of a setup, with its start-up visibility and nozzle mesh applied.
+/// The world of a setup, with its start-up visibility, nozzle mesh and part motions applied.
 std::unique_ptr<World> makeWorld(const SimSetup& setup);
+
+/// The push of sim.push on `world` (null without one): an ArmSource that replaces the script.
+std::unique_ptr<PushScript> makePushScript(const SimSetup& setup, const World& world);
 
 }  // namespace depowder::sim

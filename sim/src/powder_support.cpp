@@ -167,8 +167,10 @@ PowderSupport::Result PowderSupport::solve(const Pose& T_cell_body, const Eigen:
     // (coupling walls and tops to their bearing impulse would let the solver wedge the part in place).
     const double drag = 1 + (v0 + w0.cross(b.r)).norm() / config_.drag_speed;
     const double normal_rest = K * std::max(0.0, 1 - nz * nz) + up * up;
-    row.cap_n = config_.bearing_factor * sigma_a * drag * h;
-    row.mu = nz < -0.5 ? config_.shear_factor * drag : 0.0;
+    const double down = std::max(0.0, -nz);
+    const double N = config_.passive_factor + (config_.bearing_factor - config_.passive_factor) * down * down;
+    row.cap_n = N * sigma_a * drag * h;
+    row.mu = nz < -0.5 ? config_.shear_factor : 0.0;  // Coulomb (mu > 1 with the drag would self-lock)
     row.cap_t0 = config_.shear_factor * drag * normal_rest * sigma_a * h;
     Eigen::Vector3d& lam = lambda_[k];  // (normal, t1, t2) from the last substep, within today's bounds
     lam.x() = std::clamp(lam.x(), -row.cap_n, 0.0);

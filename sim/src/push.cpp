@@ -162,7 +162,8 @@ ArmState PushScript::update(double t) {
 PushSpec pushFrom(const World& world, std::size_t part, double azimuth_deg, double height, double offset) {
   const Eigen::AlignedBox3d b = posedBounds(world, part);
   const double az = azimuth_deg * M_PI / 180.0;
-  const Eigen::Vector3d out(std::cos(az), std::sin(az), 0), side(-std::sin(az), std::cos(az), 0);
+  // `side`: left of the push direction (-out turned +90 deg).
+  const Eigen::Vector3d out(std::cos(az), std::sin(az), 0), side(std::sin(az), -std::cos(az), 0);
   Eigen::Vector3d origin = b.center() + out * b.diagonal().norm() + side * offset;
   origin.z() = b.min().z() + std::clamp(height, 0.0, 1.0) * (b.max().z() - b.min().z());
   const Eigen::Vector3d d = -out;

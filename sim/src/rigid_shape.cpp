@@ -37,7 +37,8 @@ struct VoxelGrid {
 };
 
 struct Piece {
-  Eigen::Vector3i lo, hi;  ///< voxel index box [lo, hi)
+  Eigen::Vector3i lo, hi;          ///< voxel index box [lo, hi) of its filled voxels (where cuts go)
+  Eigen::Vector3i box_lo, box_hi;  ///< the region it was clipped to (the pieces partition the grid)
   ConvexPiece shape;
   double excess = 0;  ///< hull volume beyond the tolerated one, m^3
 };
@@ -83,7 +84,8 @@ class Decomposer {
   }
 
  private:
-  // The piece of voxel box [lo, hi), shrunk to its filled voxels; false if it has none.
+  // The piece of voxel box [lo, hi): the mesh clipped to the box (so the pieces of a partition keep all
+  // of the surface); its cuts are chosen within the extent of its filled voxels. False if it is empty.
   bool make(Eigen::Vector3i lo, Eigen::Vector3i hi, Piece& out) const {
     Eigen::Vector3i flo = hi, fhi = lo;
     int count = 0;
@@ -95,14 +97,17 @@ class Decomposer {
             flo = flo.cwiseMin(Eigen::Vector3i(i, j, k));
             fhi = fhi.cwiseMax(Eigen::Vector3i(i + 1, j + 1, k + 1));
           }
-    if (count == 0) return false;
-    out.lo = flo;
-    out.hi = fhi;
-    out.shape.points = points(flo, fhi);
+    out.shape.points = points(lo, hi);
+    if (out.shape.points.empty()) return false;
+    out.lo = count > 0 ? flo : lo;
+    out.hi = count > 0 ? fhi : hi;
+    out.box_lo = lo;
+    out.box_hi = hi;
     out.shape.hull_volume = hullVolume(out.shape.points);
     out.shape.filled_volume = count * std::pow(grid_.size, 3);
-    out.excess = out.shape.hull_volume - (1 + config_.tolerance) * out.shape.filled_volume;
-    return !out.shape.points.empty();
+    // A sliver of surface with no filled voxel is kept as it is (splitting it would not help).
+    out.excess = count == 0 ? 0.0 : out.shape.hull_volume - (1 + config_.tolerance) * out.shape.filled_volume;
+    return true;
   }
 
   // The mesh clipped to the box, plus the box corners inside the filled solid: their hull is
@@ -141,11 +146,11 @@ class Decomposer {
       if (extent < 2) continue;
       for (int q = 1; q <= 3; ++q) {
         const int cut = p.lo[axis] + std::clamp(extent * q / 4, 1, extent - 1);
-        Eigen::Vector3i hi_a = p.hi, lo_b = p.lo;
+        Eigen::Vector3i hi_a = p.box_hi, lo_b = p.box_lo;
         hi_a[axis] = cut;
         lo_b[axis] = cut;
         Piece pa, pb;
-        const bool ha = make(p.lo, hi_a, pa), hb = make(lo_b, p.hi, pb);
+        const bool ha = make(p.box_lo, hi_a, pa), hb = make(lo_b, p.box_hi, pb);
         if (!ha && !hb) continue;
         const double cost = (ha ? pa.shape.hull_volume : 0) + (hb ? pb.shape.hull_volume : 0);
         if (cost < best) {

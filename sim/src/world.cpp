@@ -400,6 +400,7 @@ PartTruth World::partTruth(std::size_t part) const {
   t.h_min = p.h_min;
   t.nozzle_contact = p.contact;
   t.speed = p.speed;
+  t.angular_speed = p.angular_speed;
   // Eq. 2 with H_pow the mean surface height of the band; cells over any part are not powder beside it.
   double sum = 0;
   for (std::size_t c : p.band)

@@ -6,7 +6,8 @@
 //     area). Buried evenly, these cancel; with the powder gone on one side, the other side's
 //     pressure pushes the part over into the gap.
 //   - Resistance (plastic, like friction): a buried face moving into the powder is resisted by
-//     up to N sigma per area (bearing); sliding along the powder by up to mu times the normal
+//     up to N sigma per area (N_q, bearing, under a footing; K_p, passive pressure, on a wall or
+//     top; blended by the normal's downward part); sliding along the powder by up to mu times the normal
 //     pressure on the face (the at-rest pressure plus the bearing pressure in use); both grow
 //     with speed by (1 + |u| / drag_speed) (drag). Below these limits the powder holds the part
 //     still: a deeply buried part does not move under gravity. A face moving away from the
@@ -37,7 +38,8 @@ namespace depowder::sim {
 
 struct PowderForceConfig {
   double density = 1500;       ///< kg/m^3, bulk density of the powder (play sand 1500..1600, as the paper used)
-  double bearing_factor = 20;  ///< N: pressure a face pushing into the powder can build, per rho g d (sand: N_q ~ 20)
+  double bearing_factor = 20;  ///< N_q: pressure a downward face (footing) pushing into the powder builds, per rho g d
+  double passive_factor = 3;   ///< K_p: the same for a wall or an upward face (passive pressure, (1+sin32)/(1-sin32))
   double shear_factor = 0.6;   ///< mu: shear stress along a buried face, per rho g d (tan 31 deg)
   double lateral_pressure =
       0.4;  ///< K: at-rest horizontal pressure on a buried side face, per rho g d (1 - sin 32 deg ~ 0.47)

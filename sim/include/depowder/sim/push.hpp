@@ -75,8 +75,9 @@ class PushScript : public ArmSource {
 
 /// A push from the side: a horizontal ray toward the part's centre (the bounding-box centre of the
 /// posed part) from azimuth `azimuth_deg` (0: from +x, counter-clockwise seen from above), at
-/// `height` (0: the part's bottom, 1: its top) and shifted sideways by `offset` m (off-centre pushes
-/// turn the part); the contact point is where the ray first meets the mesh, the direction the ray's.
+/// `height` (0: the part's bottom, 1: its top) and shifted by `offset` m to the left of the push
+/// direction (an off-centre push turns the part: left of centre, clockwise seen from above); the
+/// contact point is where the ray first meets the mesh, the direction the ray's.
 /// Throws std::invalid_argument if the ray misses the part.
 PushSpec pushFrom(const World& world, std::size_t part, double azimuth_deg, double height, double offset = 0);
 
