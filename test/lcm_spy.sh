@@ -1,15 +1,24 @@
 #!/bin/sh
-# The project's lcm-spy launcher starts under Xvfb with Java 17 and finds every
-# depowder type (one per lcmtypes/*.lcm).
+# The project's lcm-spy launcher, started by depowder-launch beside a publishing process,
+# runs under Xvfb with Java 17 and finds every depowder type (one per lcmtypes/*.lcm).
 set -eu
 BIN=$1
 SRC=$2
 expected=$(ls "$SRC"/lcmtypes/*.lcm | wc -l)
-timeout 30 xvfb-run -a sh -c "timeout 12 '$BIN/depowder-spy' > spy.out 2>&1 || true"
-cat spy.out
-found=$(sed -n 's/^Found \([0-9][0-9]*\) LCM types.*/\1/p' spy.out | head -1)
+cat > spy.yaml <<'YAML'
+hosts:
+  - name: t
+    processes:
+      - {name: spy, command: depowder-spy, restart: never}
+      - {name: status, command: depowder-status, args: [--timeout, "12", --once], restart: never}
+      - {name: timer, command: sleep, args: ["12"], restart: never, ends_run: true}
+YAML
+rm -rf run
+timeout 60 xvfb-run -a "$BIN/depowder-launch" spy.yaml --run-dir run > launch.out 2>&1 || true
+cat run/spy.log
+found=$(sed -n 's/^Found \([0-9][0-9]*\) LCM types.*/\1/p' run/spy.log | head -1)
 if [ "$found" = "$expected" ]; then
-  echo "lcm-spy found $found of $expected depowder types"
+  echo "lcm-spy (under depowder-launch) found $found of $expected depowder types"
   echo "1 passed, 0 failed"
 else
   echo "lcm-spy found '${found}' types, expected $expected"
