@@ -4,6 +4,7 @@
 #include <map>
 
 #include "depowder/heartbeat_t.hpp"
+#include "depowder/node/args.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
@@ -16,42 +17,30 @@ using namespace depowder;
 
 namespace {
 
-int usage(const std::string& error = "") {
-  if (!error.empty()) std::cerr << "depowder-progress: " << error << "\n";
-  std::cerr << "usage: depowder-progress [--cell FILE] [--url URL] [--prefix P]\n"
-               "  Subscribes POINTS, PART_POSE and NOZZLE_PLAN; publishes PROGRESS (progress_t) for every part\n"
-               "  of the cell with each POINTS frame's utime, and HEARTBEAT.\n"
-               "  --cell FILE   cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); section `progress`\n"
-               "  --url URL     LCM URL (overrides lcm.url)\n"
-               "  --prefix P    channel prefix (overrides lcm.prefix)\n";
-  return error.empty() ? 0 : 2;
-}
+const char* const kUsage =
+    "usage: depowder-progress [--cell FILE] [--url URL] [--prefix P]\n"
+    "  Subscribes POINTS, PART_POSE and NOZZLE_PLAN; publishes PROGRESS (progress_t) for every part\n"
+    "  of the cell with each POINTS frame's utime, and HEARTBEAT.\n"
+    "  --cell FILE   cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); section `progress`\n"
+    "  --url URL     LCM URL (overrides lcm.url)\n"
+    "  --prefix P    channel prefix (overrides lcm.prefix)\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string cell_path = node::defaultCellPath(), url, prefix;
-  bool have_url = false, have_prefix = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") return usage();
-    if (a != "--cell" && a != "--url" && a != "--prefix") return usage("unknown option " + a);
-    if (i + 1 >= argc) return usage("missing value after " + a);
-    const std::string v = argv[++i];
-    if (a == "--cell") cell_path = v;
-    if (a == "--url") url = v, have_url = true;
-    if (a == "--prefix") prefix = v, have_prefix = true;
-  }
+  int exit_code = 0;
+  const auto args = node::parseNodeArgs(argc, argv, "depowder-progress", kUsage, &exit_code);
+  if (!args) return exit_code;
 
   try {
     // 1. Configuration and the parts' CAD samples.
-    const node::CellConfig cell = node::loadCell(cell_path);
+    const node::CellConfig cell = node::loadCell(args->cell);
     const progress::ProgressNodeOptions options = progress::readProgressOptions(cell);
     progress::ProgressNode logic(cell, options);
 
     // 2. Bus, heartbeat, subscriptions. Handlers only queue work; the loop publishes.
     node::installShutdownHandlers();
-    node::Bus bus(have_url ? url : cell.lcm.url, have_prefix ? prefix : cell.lcm.prefix);
+    node::Bus bus(args->url.value_or(cell.lcm.url), args->prefix.value_or(cell.lcm.prefix));
     node::Heartbeat heartbeat(bus, "depowder-progress", options.heartbeat_period);
     std::vector<progress_t> out;
     auto append = [&out](std::vector<progress_t> more) {
