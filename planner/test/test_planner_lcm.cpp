@@ -55,11 +55,6 @@ class PlannerProcess : public ::testing::Test {
     }
     std::system(("rm -rf '" + dir_ + "'").c_str());
   }
-  static bool spinUntil(node::Bus& bus, const std::function<bool()>& done, double seconds) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (!done() && std::chrono::steady_clock::now() < end) bus.spinOnce(20);
-    return done();
-  }
 
   std::string dir_, prefix_;
   pid_t child_ = -1;
@@ -104,9 +99,7 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
     if (h.process == "depowder-planner") last = h, ++heartbeats;
   });
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return heartbeats > 0; }, 10))
-      << "no heartbeat from depowder-planner";
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-planner";
 
   // 1. Bad input first: a NaN pose and garbage on PROGRESS. Counted; no plan with waypoints.
   part_pose_t bad = poseMsg(1000, Pose::Identity());
@@ -118,8 +111,7 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   const Pose T = makePoseRpy({0.01, 0.0, 0.03}, 0, 0, 0.2);
   bus.publish("PART_POSE", poseMsg(2000, T));
   bus.publish("PROGRESS", progressMsg(2000, T, 0.04));
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return !plans.empty() && plans.back().num_waypoints > 0; }, 10));
+  ASSERT_TRUE(bus.spinUntil([&] { return !plans.empty() && plans.back().num_waypoints > 0; }, 10));
   const nozzle_plan_t& plan = plans.back();
   EXPECT_EQ(plan.utime, 2000);
   EXPECT_EQ(plan.part, "cube");
@@ -131,8 +123,7 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   for (std::size_t i = 0; i + 1 < plans.size(); ++i) EXPECT_EQ(plans[i].num_waypoints, 0) << "only holds before";
 
   const int before = heartbeats;
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return heartbeats >= before + 2; }, 5));
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats >= before + 2; }, 5));
   EXPECT_GE(last.decode_errors, 1);
   EXPECT_GE(last.dropped, 1);
   EXPECT_EQ(last.state, +heartbeat_t::RUNNING) << last.state_reason;

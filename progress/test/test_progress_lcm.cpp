@@ -71,11 +71,6 @@ class ProgressProcess : public ::testing::Test {
     std::system(("rm -rf '" + dir_ + "'").c_str());
   }
   /// Spins `bus` until `done()` or `seconds` pass.
-  static bool spinUntil(node::Bus& bus, const std::function<bool()>& done, double seconds) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (!done() && std::chrono::steady_clock::now() < end) bus.spinOnce(20);
-    return done();
-  }
 
   std::string dir_, prefix_;
   pid_t child_ = -1;
@@ -90,16 +85,13 @@ TEST_F(ProgressProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
     if (h.process == "depowder-progress") last_heartbeat = h, ++heartbeats;
   });
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return heartbeats > 0; }, 10))
-      << "no heartbeat from depowder-progress";
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-progress";
 
   // 1. A frame and its pose: one PROGRESS with the frame's utime and Eq. 2's value.
   const Pose init = makePoseRpy({0, 0, 0.05}, 0, 0, 0);
   bus.publish("POINTS", node::encodeCloud(cubeScene(0.05), 1000));
   bus.publish("PART_POSE", poseMsg(1000, init));
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return !got.empty(); }, 5));
+  ASSERT_TRUE(bus.spinUntil([&] { return !got.empty(); }, 5));
   EXPECT_EQ(got[0].utime, 1000);
   EXPECT_EQ(got[0].part, "cube");
   EXPECT_EQ(got[0].status, +progress_t::OK) << got[0].status_reason;
@@ -114,14 +106,12 @@ TEST_F(ProgressProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
 
   // 3. A frame 20 s later with no pose: NO_POSE after pose_wait, naming the cause.
   bus.publish("POINTS", node::encodeCloud(cubeScene(0.05), 20'000'000));
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return got.size() >= 2; }, 5));
+  ASSERT_TRUE(bus.spinUntil([&] { return got.size() >= 2; }, 5));
   EXPECT_EQ(got[1].utime, 20'000'000);
   EXPECT_EQ(got[1].status, +progress_t::NO_POSE);
   EXPECT_NE(got[1].status_reason.find("pose_staleness"), std::string::npos) << got[1].status_reason;
   const int before = heartbeats;
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return heartbeats >= before + 2; }, 5));
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats >= before + 2; }, 5));
   EXPECT_GE(last_heartbeat.decode_errors, 1);
   EXPECT_EQ(last_heartbeat.state, +heartbeat_t::DEGRADED);
   EXPECT_NE(last_heartbeat.state_reason.find("cube"), std::string::npos) << last_heartbeat.state_reason;

@@ -68,11 +68,6 @@ class TrackerProcess : public ::testing::Test {
     }
     ASSERT_GT(child_, 0);
   }
-  static bool spinUntil(node::Bus& bus, const std::function<bool()>& done, double seconds) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (!done() && std::chrono::steady_clock::now() < end) bus.spinOnce(20);
-    return done();
-  }
   std::string dir_, prefix_;
   pid_t child_ = -1;
 };
@@ -92,15 +87,12 @@ TEST_F(TrackerProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
     if (h.process == "depowder-tracker") last_heartbeat = h, ++heartbeats;
   });
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return heartbeats > 0; }, 10))
-      << "no heartbeat from depowder-tracker";
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-tracker";
 
   std::mt19937 rng(3);
   auto frame = [&] { return tracker::scene::render({{&cube, truth}}, 0.025, {}, rng); };
   auto waitFor = [&](std::int64_t utime) {
-    return spinUntil(
-        bus, [&] { return !got.empty() && got.back().utime == utime; }, 5);
+    return bus.spinUntil([&] { return !got.empty() && got.back().utime == utime; }, 5);
   };
 
   // 1. A frame: one PART_POSE with its utime, tracked near the truth.
@@ -127,8 +119,7 @@ TEST_F(TrackerProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   for (const part_pose_t& m : got) EXPECT_NE(m.utime, 0);
 
   const int before = heartbeats;
-  ASSERT_TRUE(spinUntil(
-      bus, [&] { return heartbeats >= before + 2; }, 5));
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats >= before + 2; }, 5));
   EXPECT_GE(last_heartbeat.decode_errors, 1);
   bool has_timing = false;
   for (int i = 0; i < last_heartbeat.num_stats; ++i)

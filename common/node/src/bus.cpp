@@ -1,6 +1,7 @@
 #include "depowder/node/bus.hpp"
 
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <exception>
 #include <utility>
@@ -70,6 +71,12 @@ int Bus::spinOnce(int timeout_ms) {
   if (rc < 0 && errno == EINTR) return 0;  // a signal (e.g. SIGTERM for shutdown) interrupted the wait
   if (rc < 0) throw BusError("LCM handle failed (the LCM socket reported an error)");
   return static_cast<int>(counters_.received + counters_.decode_errors + counters_.handler_errors - before);
+}
+
+bool Bus::spinUntil(const std::function<bool()>& done, double seconds, int step_ms) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (!done() && std::chrono::steady_clock::now() < end) spinOnce(step_ms);
+  return done();
 }
 
 Bus::Counters Bus::counters() const { return counters_; }

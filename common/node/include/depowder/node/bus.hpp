@@ -69,6 +69,9 @@ class Bus {
   /// (0 on timeout). Throws BusError if LCM itself fails.
   int spinOnce(int timeout_ms);
 
+  /// Handles messages until `done()` is true or `seconds` have passed; returns done().
+  bool spinUntil(const std::function<bool()>& done, double seconds, int step_ms = 20);
+
   Counters counters() const;
   /// Errors kept since the last call (decode failures, handler exceptions), oldest first.
   std::vector<std::string> takeErrors();
