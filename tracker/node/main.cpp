@@ -1,6 +1,8 @@
 // depowder-tracker: POINTS -> PART_POSE for every part of the cell (CU-ICP, paper Alg. 1, or a
 // baseline), with HEARTBEAT. The logic is in tracker_node.hpp; this file is the bus.
+#include <chrono>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <string>
 
@@ -19,13 +21,16 @@ namespace {
 int usage(const std::string& error = "") {
   if (!error.empty()) std::cerr << "depowder-tracker: " << error << "\n";
   (error.empty() ? std::cout : std::cerr)
-      << "usage: depowder-tracker [--config FILE] [--method cu|continuous|vanilla] [--url URL] [--prefix P]\n"
+      << "usage: depowder-tracker [--config FILE] [--method cu|continuous|vanilla] [--state FILE] [--url URL]\n"
+         "                        [--prefix P]\n"
          "  Subscribes POINTS; publishes PART_POSE (part_pose_t) for every part of the cell with each\n"
          "  frame's utime, and HEARTBEAT with per-frame timing. If it falls behind, it tracks the newest\n"
          "  frame and counts the skipped ones as dropped.\n"
          "  --config FILE  cell YAML (default: $DEPOWDER_CELL or config/cell.yaml); section `tracker`\n"
          "                 (--cell FILE is the same)\n"
          "  --method M     cu (CU-ICP, default), continuous or vanilla: overrides tracker.method\n"
+         "  --state FILE   keep the last poses in FILE; a restart resumes from them (overrides\n"
+         "                 tracker.state_file)\n"
          "  --url URL      LCM URL (overrides lcm.url)\n"
          "  --prefix P     channel prefix (overrides lcm.prefix)\n";
   return error.empty() ? 0 : 2;
@@ -34,17 +39,18 @@ int usage(const std::string& error = "") {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string cell_path = node::defaultCellPath(), url, prefix, method;
+  std::string cell_path = node::defaultCellPath(), url, prefix, method, state_file;
   bool have_url = false, have_prefix = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") return usage();
-    if (a != "--config" && a != "--cell" && a != "--method" && a != "--url" && a != "--prefix")
+    if (a != "--config" && a != "--cell" && a != "--method" && a != "--state" && a != "--url" && a != "--prefix")
       return usage("unknown option " + a);
     if (i + 1 >= argc) return usage("missing value after " + a);
     const std::string v = argv[++i];
     if (a == "--config" || a == "--cell") cell_path = v;
     if (a == "--method") method = v;
+    if (a == "--state") state_file = v;
     if (a == "--url") url = v, have_url = true;
     if (a == "--prefix") prefix = v, have_prefix = true;
   }
@@ -56,7 +62,22 @@ int main(int argc, char** argv) {
     const node::CellConfig cell = node::loadCell(cell_path);
     tracker::TrackerNodeOptions options = tracker::readTrackerOptions(cell);
     if (!method.empty()) options.tracker.method = *tracker::methodFromString(method);
-    tracker::TrackerNode logic(cell, options);
+    if (!state_file.empty()) options.state_file = state_file;
+    // A restart resumes from the last published poses; a broken state file is reported and ignored.
+    std::map<std::string, tracker::SavedPose> resume;
+    if (!options.state_file.empty()) {
+      try {
+        resume = tracker::loadTrackerState(options.state_file);
+      } catch (const std::exception& e) {
+        std::cerr << "depowder-tracker: ignoring the state file: " << e.what() << std::endl;
+      }
+      for (const auto& [name, saved] : resume)
+        std::cout << "depowder-tracker: " << name << " resumes from its pose of utime " << saved.utime << " ("
+                  << options.state_file << ")" << std::endl;
+    }
+    tracker::TrackerNode logic(cell, options, resume);
+    auto last_save = std::chrono::steady_clock::now();
+    std::string state_error;  // the state file's last write error
 
     // 2. Bus and heartbeat. The handler only keeps the newest frame; the loop tracks it.
     node::installShutdownHandlers();
@@ -91,6 +112,13 @@ int main(int argc, char** argv) {
         pending.reset();
         for (const part_pose_t& m : logic.onPoints(frame)) bus.publish("PART_POSE", m);
       }
+      if (!options.state_file.empty() && !logic.lastPoses().empty() &&
+          std::chrono::steady_clock::now() - last_save > std::chrono::duration<double>(options.state_period)) {
+        last_save = std::chrono::steady_clock::now();
+        const std::string error = tracker::saveTrackerState(options.state_file, logic.lastPoses());
+        if (!error.empty() && state_error.empty()) std::cerr << "depowder-tracker: state file: " << error << std::endl;
+        state_error = error;
+      }
       for (const std::string& e : bus.takeErrors()) std::cerr << "depowder-tracker: " << e << std::endl;
 
       const auto& s = logic.stats();
@@ -102,6 +130,8 @@ int main(int argc, char** argv) {
       heartbeat.setStat("frame_ms_max", s.frame_ms_max);
       if (!s.last_problem.empty())
         heartbeat.setState(heartbeat_t::DEGRADED, s.last_problem);
+      else if (!state_error.empty())
+        heartbeat.setState(heartbeat_t::DEGRADED, "state file: " + state_error);
       else
         heartbeat.setState(heartbeat_t::RUNNING);
       heartbeat.tick();

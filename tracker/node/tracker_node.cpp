@@ -31,6 +31,8 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   r.read("template_leaf", o.template_leaf, 0.0, 0.05);
   r.read("template_resolution", o.template_resolution, 1e-5, 0.01);
   r.read("heartbeat_period", o.heartbeat_period, 0.05, 10.0);
+  r.read("state_file", o.state_file);
+  r.read("state_period", o.state_period, 0.01, 60.0);
   const node::YamlReader icp = r.child("icp");
   icp.read("max_iterations", c.icp.max_iterations, 1, 1000);
   icp.read("max_correspondence_distance", c.icp.max_correspondence_distance, 0.0, 0.5);
@@ -59,10 +61,15 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   return o;
 }
 
-TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options) : options_(options) {
+TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options,
+                         const std::map<std::string, SavedPose>& resume)
+    : options_(options), last_poses_(resume) {
   std::vector<PartTracker> parts;
-  for (const node::PartConfig& p : cell.parts)
-    parts.emplace_back(p.name, loadMesh(p.mesh, p.mesh_scale), p.T_cell_part_init, p.xi, options_.tracker);
+  for (const node::PartConfig& p : cell.parts) {
+    const auto saved = resume.find(p.name);
+    const Pose& T_init = saved != resume.end() ? saved->second.T_cell_part : p.T_cell_part_init;
+    parts.emplace_back(p.name, loadMesh(p.mesh, p.mesh_scale), T_init, p.xi, options_.tracker);
+  }
   trackers_ = std::make_unique<MultiTracker>(std::move(parts), options_.threads);
   published_version_.assign(trackers_->size(), -1);
   encoded_.resize(trackers_->size());
@@ -146,6 +153,7 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
     stats_.last_problem.clear();
     for (std::size_t i = 0; i < results.size(); ++i) {
       out.push_back(toMessage(msg.utime, i, results[i]));
+      if (trackers_->part(i).started()) last_poses_[trackers_->part(i).name()] = {results[i].T_cell_part, msg.utime};
       if (results[i].status != TrackStatus::kTracking && stats_.last_problem.empty())
         stats_.last_problem = trackers_->part(i).name() + ": " + results[i].reason;
     }

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "depowder/part_pose_t.hpp"
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/tracker/multi_tracker.hpp"
+#include "tracker_state.hpp"
 
 namespace depowder::tracker {
 
@@ -23,6 +25,8 @@ struct TrackerNodeOptions {
   double template_leaf = 0.005;         ///< m; the published template is thinned to this voxel (0: every sample)
   double template_resolution = 0.0005;  ///< m per count of part_pose_t.template_xyz
   double heartbeat_period = 0.5;        ///< s
+  std::string state_file;               ///< last poses kept here; a restart resumes from them ("" = none)
+  double state_period = 0.2;            ///< s between writes of state_file
 };
 
 /// Reads the `tracker` section of a cell (keys mirror the fields; unknown keys and out-of-range
@@ -34,8 +38,10 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell);
 class TrackerNode {
  public:
   /// Loads each part's mesh (throws MeshError naming the file, std::invalid_argument naming the
-  /// part for a mesh with no triangles).
-  TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options);
+  /// part for a mesh with no triangles). A part named in `resume` starts from that pose (the
+  /// last one a previous run published) instead of the cell's initial pose.
+  TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options,
+              const std::map<std::string, SavedPose>& resume = {});
 
   /// One POINTS message: one part_pose_t per part, in the cell's part order. A message that
   /// does not decode gives every part its last pose with the reason (never throws).
@@ -53,6 +59,8 @@ class TrackerNode {
   std::vector<std::string> partNames() const;
   const MultiTracker& trackers() const { return *trackers_; }
   const char* method() const { return toString(options_.tracker.method); }
+  /// The last pose published for every part past Phase 1, for saveTrackerState.
+  const std::map<std::string, SavedPose>& lastPoses() const { return last_poses_; }
 
  private:
   part_pose_t toMessage(std::int64_t utime, std::size_t part, const TrackResult& r);
@@ -63,6 +71,7 @@ class TrackerNode {
   std::vector<std::vector<std::vector<std::int16_t>>> encoded_;  ///< its quantised points
   std::deque<double> recent_ms_;
   Stats stats_;
+  std::map<std::string, SavedPose> last_poses_;
 };
 
 }  // namespace depowder::tracker

@@ -2,6 +2,7 @@
 // errors), one PART_POSE per part per frame with the frame's utime and the quantised template,
 // bad frames reported while tracking goes on, broken meshes refused at start-up.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
@@ -151,6 +152,49 @@ TEST(TrackerNode, OnePosePerPartWithTheFrameUtime) {
     const Point q(m.template_xyz[i][0], m.template_xyz[i][1], m.template_xyz[i][2]);
     EXPECT_LE((q * m.template_resolution - tracker.cad().points[shown[i]]).cwiseAbs().maxCoeff(), 0.00025 + 1e-9);
   }
+}
+
+TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
+  const TwoParts s;
+  const node::CellConfig cell = node::loadCellFromString(s.yaml());
+  TrackerNode first(cell, readTrackerOptions(cell));
+  for (const Cloud& frame : s.frames(3)) first.onPoints(node::encodeCloud(frame, 7));
+  ASSERT_EQ(first.lastPoses().size(), 2u);
+  EXPECT_EQ(first.lastPoses().at("cube").utime, 7);
+
+  char dir[] = "/tmp/depowder_tracker_state_XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  const std::string path = std::string(dir) + "/tracker.state";
+  EXPECT_TRUE(loadTrackerState(path).empty());  // no file yet: a first start
+  ASSERT_EQ(saveTrackerState(path, first.lastPoses()), "");
+  const std::map<std::string, SavedPose> saved = loadTrackerState(path);
+  ASSERT_EQ(saved.size(), 2u);
+  for (const auto& [name, p] : first.lastPoses()) {
+    EXPECT_EQ(saved.at(name).utime, p.utime);
+    EXPECT_LT(translationDistance(saved.at(name).T_cell_part, p.T_cell_part), 1e-12) << name;
+    EXPECT_LT(rotationAngle(saved.at(name).T_cell_part.linear(), p.T_cell_part.linear()), 1e-9) << name;
+  }
+  // The restarted node starts every part from its saved pose, not the cell's initial pose
+  // (2 mm off the truth), and skips Phase 1's wait.
+  TrackerNode second(cell, readTrackerOptions(cell), saved);
+  for (std::size_t i = 0; i < 2; ++i)
+    EXPECT_LT(translationDistance(second.trackers().part(i).pose(), saved.at(second.partNames()[i]).T_cell_part),
+              1e-12);
+  for (const part_pose_t& m : second.onPoints(node::encodeCloud(s.frames(1)[0], 8)))
+    EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
+
+  // A broken file names the file and the line.
+  for (const std::string& bad : {"cube 7 0 0 0 1 0 0\n", "cube 7 0 0 0 2 0 0 0\n", "cube 7 nan 0 0 1 0 0 0\n"}) {
+    std::ofstream(path) << "owl 7 0 0 0 1 0 0 0\n" << bad;
+    try {
+      loadTrackerState(path);
+      ADD_FAILURE() << "accepted: " << bad;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(path + ":2:"), std::string::npos) << e.what();
+    }
+  }
+  std::remove(path.c_str());
+  rmdir(dir);
 }
 
 TEST(TrackerNode, BadFramesAreReportedAndTrackingGoesOn) {
