@@ -173,6 +173,12 @@ int main(int argc, char** argv) {
     std::int64_t truth_due = 1;
     double render_ms = 0, step_ms = 0, lag_s = 0;
     std::int64_t frames = 0;
+    std::vector<bool> fault_done(setup.faults.size(), false);
+    auto silenced = [&](const std::string& camera, double t) {
+      for (const SimSetup::Fault& f : setup.faults)
+        if (f.silence_camera == camera && t >= f.at && t < f.at + f.duration) return true;
+      return false;
+    };
     for (std::int64_t k = 1; !node::shutdownRequested(); ++k) {
       const double t = k * dt;
       if (duration > 0 && t > duration + 1e-9) break;
@@ -184,6 +190,19 @@ int main(int argc, char** argv) {
       else
         world->removeNozzle();
       if (!state.T_cell_links.empty()) world->setArmLinkPoses(state.T_cell_links);
+
+      // 3a'. Injected faults (sim.faults): a pulled controller cable; silenced cameras below.
+      for (std::size_t i = 0; i < setup.faults.size(); ++i) {
+        const SimSetup::Fault& f = setup.faults[i];
+        if (fault_done[i] || t < f.at) continue;
+        fault_done[i] = true;
+        if (f.drop_controller && emulator) emulator->dropConnections();
+        std::cout << "depowder-sim: fault at t = " << t << " s (utime " << utimeAt(t) << "): "
+                  << (f.drop_controller
+                          ? std::string("controller connections dropped")
+                          : "camera " + f.silence_camera + " silent for " + std::to_string(f.duration) + " s")
+                  << std::endl;
+      }
 
       // 3b. Physics of the powder and contacts.
       const auto s0 = std::chrono::steady_clock::now();
@@ -205,6 +224,7 @@ int main(int argc, char** argv) {
         const double rate = world->cameras()[c].rate_hz;
         if (t + 1e-9 < frames_due[c] / rate) continue;
         while (frames_due[c] / rate <= t + 1e-9) ++frames_due[c];
+        if (silenced(world->cameras()[c].name, t)) continue;
         const auto r0 = std::chrono::steady_clock::now();
         const DepthImage img = world->render(c);
         render_ms = 0.95 * render_ms +

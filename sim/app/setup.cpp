@@ -1,5 +1,6 @@
 #include "setup.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "depowder/mesh.hpp"
@@ -132,6 +133,24 @@ void readMotions(const YamlReader& s, SimSetup& out) {
   }
 }
 
+void readFaults(const YamlReader& s, SimSetup& out) {
+  for (const YamlReader& item : s.items("faults")) {
+    SimSetup::Fault f;
+    item.require("at", f.at);
+    item.read("at", f.at, 0.0, 1e6);
+    item.read("silence_camera", f.silence_camera);
+    item.read("duration", f.duration, 0.0, 1e6);
+    item.read("drop_controller", f.drop_controller);
+    if (f.silence_camera.empty() == !f.drop_controller)
+      item.fail("", "needs exactly one of 'silence_camera' or 'drop_controller: true'");
+    if (!f.silence_camera.empty() && std::none_of(out.cameras.begin(), out.cameras.end(),
+                                                  [&](const CameraModel& c) { return c.name == f.silence_camera; }))
+      item.fail("silence_camera", "names no camera of the cell ('" + f.silence_camera + "')");
+    item.finish();
+    out.faults.push_back(f);
+  }
+}
+
 void readSimSection(const YamlReader& s, SimSetup& out) {
   int seed = static_cast<int>(out.seed);
   s.read("seed", seed, 0, 2147483647);
@@ -230,6 +249,9 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
 
   s.readChoice("arm", out.arm, {"script", "emulator"});
   s.read("emulator_bind", out.emulator_bind);
+  readFaults(s, out);
+  for (const SimSetup::Fault& f : out.faults)
+    if (f.drop_controller && out.arm != "emulator") s.fail("faults", "drop_controller needs arm: emulator");
 
   const YamlReader sr = s.child("script");
   sr.read("loop", out.script_loop);

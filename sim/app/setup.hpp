@@ -49,6 +49,14 @@ struct SimSetup {
     PushSpec spec;             ///< speeds, gaps (the contact point and direction come from the three above)
   };
   std::optional<Push> push;  ///< sim.push: the nozzle pushes a part to the box edge (with arm: script)
+  /// sim.faults: what goes wrong in the cell, and when (fault tests; the README's fault list).
+  struct Fault {
+    double at = 0;                 ///< simulated seconds
+    std::string silence_camera;    ///< this camera publishes nothing from `at` for `duration` (cable pulled)
+    double duration = 0;           ///< s
+    bool drop_controller = false;  ///< the b-CAP emulator drops every connection at `at` (needs arm: emulator)
+  };
+  std::vector<Fault> faults;
 };
 
 /// Reads `cell_path`; `scenario_path` (optional) is either a full cell file used instead, or a file

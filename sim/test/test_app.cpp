@@ -115,6 +115,24 @@ TEST(SimSetup, DefaultCellAndScenariosLoad) {
   EXPECT_NEAR(makeWorld(overlay)->truth().parts.at(0).eta, 0.4, 1e-9);
 }
 
+TEST(SimApp, ASilencedCameraPublishesNothingForItsWindow) {
+  // sim.faults: camera A silent from 0.3 s for 0.4 s; 30 Hz over 1 s gives 30 - 12 frames.
+  const std::string cell = cellWithSim("faults.yaml", "  faults: [{at: 0.3, silence_camera: A, duration: 0.4}]\n");
+  const std::string log = (scratch() / "faults.lcmlog").string();
+  ASSERT_EQ(run("--cell " + cell + " --fast --duration 1.0", log), 0) << slurp(scratch() / "err.txt");
+  std::vector<std::int64_t> utimes;
+  lcm::LogFile file(log, "r");
+  while (const lcm::LogEvent* e = file.readNextEvent())
+    if (e->channel == "DEPTH_A") {
+      depth_image_t m;
+      ASSERT_GT(m.decode(e->data, 0, e->datalen), 0);
+      utimes.push_back(m.utime);
+    }
+  EXPECT_EQ(utimes.size(), 18u);
+  for (const std::int64_t u : utimes) EXPECT_TRUE(u < 300000 || u >= 700000) << u;
+  EXPECT_NE(slurp(scratch() / "out.txt").find("camera A silent for 0.4"), std::string::npos);
+}
+
 TEST(SimSetup, BadSimKeysNameTheFileTheKeyAndTheRange) {
   expectConfigError("  bogus: 1\n", {"bad.yaml", "unknown key 'bogus'", "'sim'"});
   expectConfigError("  powder: {repose_deg: 80}\n", {"bad.yaml", "'sim.powder.repose_deg'", "[5, 60]"});
@@ -128,6 +146,10 @@ TEST(SimSetup, BadSimKeysNameTheFileTheKeyAndTheRange) {
                     {"'sim.script.segments[0].waypoints[1].t'", "later"});
   expectConfigError("  script: {segments: [{waypoints: [{t: 0, xyz: [0, 0, 0.1], tool: hoover}]}]}\n",
                     {"'sim.script.segments[0].waypoints[0].tool'", "off, vacuum, air"});
+  expectConfigError("  faults: [{at: 1}]\n", {"'sim.faults[0]'", "exactly one"});
+  expectConfigError("  faults: [{at: 1, silence_camera: B, duration: 1}]\n", {"'sim.faults[0].silence_camera'", "'B'"});
+  expectConfigError("  faults: [{at: 1, drop_controller: true}]\n", {"'sim.faults'", "arm: emulator"});
+  expectConfigError("  faults: [{silence_camera: A}]\n", {"'sim.faults[0].at'"});
   // An overlay may hold nothing but the sim section.
   const std::string overlay = write("overlay.yaml", "sim: {seed: 3}\ntracker: {}\n");
   try {
