@@ -58,6 +58,34 @@ PointGrid::Hit PointGrid::nearest(const Eigen::Vector3d& q, double radius) const
   return hit;
 }
 
+bool PointGrid::anyWithin(const Eigen::Vector3d& q, double radius) const {
+  if (!points_ || points_->empty() || !q.allFinite()) return false;
+  const double r2 = radius * radius;
+  auto cellHas = [&](std::size_t c) {
+    for (std::uint32_t k = start_[c]; k < start_[c + 1]; ++k)
+      if (((*points_)[order_[k]] - q).squaredNorm() <= r2) return true;
+    return false;
+  };
+  const Eigen::Array3d own = ((q - origin_) / cell_).array().floor();
+  const bool inside = (own >= 0).all() && (own < dims_.array().cast<double>()).all();
+  const std::size_t own_cell =
+      inside ? (static_cast<std::size_t>(own.z()) * dims_.y() + static_cast<std::size_t>(own.y())) * dims_.x() +
+                   static_cast<std::size_t>(own.x())
+             : start_.size();
+  if (inside && cellHas(own_cell)) return true;
+  const Eigen::Vector3d lo = (q.array() - radius - origin_.array()) / cell_;
+  const Eigen::Vector3d hi = (q.array() + radius - origin_.array()) / cell_;
+  const Eigen::Vector3i a = lo.array().floor().cast<int>().max(0);
+  const Eigen::Vector3i b = hi.array().floor().cast<int>().min(dims_.array() - 1);
+  for (int z = a.z(); z <= b.z(); ++z)
+    for (int y = a.y(); y <= b.y(); ++y) {
+      const std::size_t row = (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x();
+      for (int x = a.x(); x <= b.x(); ++x)
+        if (row + x != own_cell && cellHas(row + x)) return true;
+    }
+  return false;
+}
+
 Cloud voxelDownsample(const Cloud& points, double leaf) {
   struct Acc {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();

@@ -45,6 +45,7 @@ TEST(PointGrid, NearestMatchesBruteForce) {
     }
     const auto hit = grid.nearest(q, r);
     ASSERT_EQ(hit.index, best) << "query " << k;
+    ASSERT_EQ(grid.anyWithin(q, r), best >= 0) << "query " << k;
     if (best >= 0) {
       EXPECT_DOUBLE_EQ(hit.distance2, best_d2);
     }
@@ -56,6 +57,8 @@ TEST(PointGrid, EmptyCloudAndNanQueryFindNothing) {
   EXPECT_FALSE(PointGrid(empty, 0.01).nearest(Point::Zero(), 1.0).found());
   const Cloud one{Point::Zero()};
   EXPECT_FALSE(PointGrid(one, 0.01).nearest(Point(NAN, 0, 0), 1.0).found());
+  EXPECT_FALSE(PointGrid(empty, 0.01).anyWithin(Point::Zero(), 1.0));
+  EXPECT_FALSE(PointGrid(one, 0.01).anyWithin(Point(NAN, 0, 0), 1.0));
 }
 
 TEST(VoxelDownsample, OneCentroidPerVoxel) {

@@ -27,6 +27,7 @@ ProgressNodeOptions readProgressOptions(const node::CellConfig& cell) {
   r.read("contour_spacing", e.contour_spacing, 0.001, 0.1);
   r.read("contour_radius", e.contour_radius, 0.001, 0.1);
   r.read("contour_min_points", e.contour_min_points, 1, 1000);
+  r.read("footprint_reuse", e.footprint_reuse, 0.0, 0.01);
   r.read("cad_spacing", o.cad_spacing, 0.0005, 0.02);
   std::string mode = toString(o.filter.mode);
   r.readChoice("eta_filter", mode, {"median", "running_max", "running_max_reset", "none"});

@@ -17,7 +17,7 @@ using PclCloud = pcl::PointCloud<pcl::PointXYZ>;
 
 struct PclTracker::Impl {
   SurfaceSamples cad;
-  Cloud cad_coarse;  // P_cad thinned to icp_leaf for Eq. 2, as PartTracker does
+  progress::EtaEstimator eta_estimator;  // Eq. 2 on P_cad thinned to icp_leaf, as PartTracker does
   TrackerConfig config;
   double xi;
   Pose T_init, T;
@@ -28,9 +28,8 @@ struct PclTracker::Impl {
   PclCloud::Ptr source{new PclCloud};  // the template thinned to 5 mm, part frame
   pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
 
-  double etaAt(const Pose& pose, const Cloud& scan) const {
-    const progress::ProgressEstimate e =
-        progress::estimateProgress(transformed(cad_coarse, pose), scan, xi, config.progress);
+  double etaAt(const Pose& pose, const Cloud& scan) {
+    const progress::ProgressEstimate e = eta_estimator.estimate(pose, scan);
     return e.status == progress::Status::kOk ? e.eta : std::nan("");
   }
   void setTemplate(Indices indices) {
@@ -46,7 +45,8 @@ struct PclTracker::Impl {
 PclTracker::PclTracker(const SurfaceSamples& cad, const Pose& T_cell_part_init, double xi, const TrackerConfig& config)
     : impl_(std::make_unique<Impl>()) {
   impl_->cad = cad;
-  impl_->cad_coarse = gather(cad.points, thinned(cad.points, allIndices(cad.points.size()), config.icp_leaf));
+  impl_->eta_estimator = progress::EtaEstimator(
+      gather(cad.points, thinned(cad.points, allIndices(cad.points.size()), config.icp_leaf)), xi, config.progress);
   impl_->config = config;
   impl_->xi = xi;
   impl_->T_init = impl_->T = T_cell_part_init;

@@ -27,6 +27,9 @@ class PointGrid {
 
   /// Nearest point within `radius` of q (any radius works; small ones are fastest).
   Hit nearest(const Eigen::Vector3d& q, double radius) const;
+  /// True if some point lies within `radius` of q: nearest(q, radius).found(), but q's own cell
+  /// is searched first and the search stops at the first point in range.
+  bool anyWithin(const Eigen::Vector3d& q, double radius) const;
 
   std::size_t size() const { return points_ ? points_->size() : 0; }
   double cellSize() const { return cell_; }

@@ -7,6 +7,7 @@
 
 #include "depowder/geometry.hpp"
 #include "depowder/mesh.hpp"
+#include "depowder/progress/progress.hpp"
 #include "depowder/tracker/config.hpp"
 #include "depowder/tracker/registration.hpp"
 #include "depowder/tracker/template.hpp"
@@ -73,7 +74,7 @@ class PartTracker {
 
  private:
   double correspondenceDistance() const;
-  double estimateEta(const Pose& T_cell_part, const Cloud& scan, std::string* why) const;
+  double estimateEta(const Pose& T_cell_part, const Cloud& scan, std::string* why);
   void setTemplate(Indices indices);
   TrackResult refuse(TrackResult r, std::string why) const;
 
@@ -81,8 +82,8 @@ class PartTracker {
   TrackerConfig config_;
   double xi_;
   SurfaceSamples cad_;
-  Cloud cad_coarse_;             ///< P_cad thinned to icp_leaf, for Eq. 2
-  Eigen::AlignedBox3d cad_box_;  ///< part frame
+  progress::EtaEstimator eta_estimator_;  ///< Eq. 2 (line 11) on P_cad thinned to icp_leaf
+  Eigen::AlignedBox3d cad_box_;           ///< part frame
   Pose T_cell_part_init_;
 
   // Tracking state (Alg. 1).
