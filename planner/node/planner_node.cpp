@@ -48,6 +48,7 @@ PlannerNodeOptions readPlannerOptions(const node::CellConfig& cell) {
   v.read("speed", c.vacuum.speed, 0.001, 0.5);
   v.read("spacing", c.vacuum.spacing, 0.002, 0.05);
   v.read("min_tip_height", c.vacuum.min_tip_height, 0.0, 0.1);
+  v.read("undercut", c.vacuum.undercut, 0.0, 0.2);
   v.read("standoff_tolerance", c.vacuum.standoff_tolerance, 0.0001, 0.005);
   v.read("min_contour_points", c.vacuum.min_contour_points, 3, 10000);
   v.read("counter_clockwise", c.vacuum.counter_clockwise);

@@ -256,7 +256,7 @@ std::optional<Plan> CellPlanner::step() {
     PartState& s = states_[part];
     PartReport& report = reports_[part];
     const ProgressInput& progress = *s.progress;
-    const Phase phase = progress.phase;
+    Phase phase = progress.phase;
 
     // 3. Inputs: phases 2 and 3 need a fresh tracked pose; phase 1 uses the printed pose.
     std::int64_t utime = progress.utime;
@@ -279,6 +279,13 @@ std::optional<Plan> CellPlanner::step() {
       if (first_problem.empty()) first_problem = problem;
       continue;
     }
+
+    // 3b. Undercut (vacuum.undercut): before the air blast, vacuum loops until the powder beside
+    //     the part is down to the loops' floor below its bottom (one layer of slack: the powder
+    //     next to the nozzle stays a little higher than under it).
+    if (phase == Phase::kAirBlast && config_.vacuum.undercut > 0 && std::isfinite(s.powder) &&
+        s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth)
+      phase = Phase::kVacuumTracked;
 
     // 4. Plan only when something changed: a finished cycle, a new phase, a moved pose.
     const bool same = continuing && phase == active_phase_;

@@ -291,9 +291,12 @@ HeightRange partHeights(const PartShape& part, const Pose& T_cell_part) {
   return {b.min().z(), b.max().z()};
 }
 
+double loopFloor(const PartShape& part, const Pose& T_cell_part, const VacuumConfig& config) {
+  return std::max(partHeights(part, T_cell_part).min - config.undercut, config.min_tip_height);
+}
+
 double loopHeight(const PartShape& part, const Pose& T_cell_part, double powder_height, const VacuumConfig& config) {
-  const HeightRange hr = partHeights(part, T_cell_part);
-  return std::max({powder_height - config.layer_depth, hr.min, config.min_tip_height});
+  return std::max(powder_height - config.layer_depth, loopFloor(part, T_cell_part, config));
 }
 
 LoopResult contourLoop(const PartShape& part, const Pose& T_cell_part, const Cloud& contour, double powder_height,

@@ -122,6 +122,41 @@ TEST_F(CellTest, PhaseSwitchChangesTheTool) {
   EXPECT_TRUE(check(*air, T_left, T_right).clean()) << check(*air, T_left, T_right).first;
 }
 
+TEST_F(CellTest, UndercutVacuumsBelowThePartBeforeTheAirBlast) {
+  // The left cube perched on 3 cm of powder (z 0.03 .. 0.09); loops may go 2 cm below it.
+  T_left = makePoseRpy({-0.08, 0.0, 0.06}, 0, 0, 0.1);
+  config.vacuum.undercut = 0.02;
+  SetUp();
+  // Phase 3 with the powder at the part's bottom: a vacuum loop one layer below it, not the raster.
+  frame("left", T_left, Phase::kAirBlast, 0.03);
+  auto dig = planner->step();
+  ASSERT_TRUE(dig && dig->hasWaypoints()) << (dig ? dig->reason : "");
+  EXPECT_EQ(dig->phase, Phase::kVacuumTracked) << "a vacuum plan: the air-blast clock must not start";
+  EXPECT_TRUE(withTool(*dig, Tool::kAir).empty());
+  const auto loop = withTool(*dig, Tool::kVacuum);
+  ASSERT_GT(loop.size(), 20u);
+  for (const Waypoint& w : loop) EXPECT_NEAR(w.T_cell_nozzle.translation().z(), 0.025, 1e-6) << dig->reason;
+  EXPECT_TRUE(check(*dig, T_left, T_right).clean()) << check(*dig, T_left, T_right).first;
+  // The loop ran and the powder is lower: the next loop is one layer below it.
+  robotAt(*dig, static_cast<int>(dig->waypoints.size()));
+  utime += 33000;
+  frame("left", T_left, Phase::kAirBlast, 0.017);
+  auto deeper = planner->step();
+  ASSERT_TRUE(deeper && deeper->hasWaypoints()) << (deeper ? deeper->reason : "");
+  EXPECT_EQ(deeper->phase, Phase::kVacuumTracked);
+  for (const Waypoint& w : withTool(*deeper, Tool::kVacuum))
+    EXPECT_NEAR(w.T_cell_nozzle.translation().z(), 0.012, 1e-6);
+  // The powder beside the part within a layer of the floor: now the air blast.
+  robotAt(*deeper, 3);
+  utime += 33000;
+  frame("left", T_left, Phase::kAirBlast, 0.014);
+  auto air = planner->step();
+  ASSERT_TRUE(air && air->hasWaypoints()) << (air ? air->reason : "");
+  EXPECT_EQ(air->phase, Phase::kAirBlast);
+  EXPECT_GT(withTool(*air, Tool::kAir).size(), 10u);
+  EXPECT_TRUE(withTool(*air, Tool::kVacuum).empty());
+}
+
 TEST_F(CellTest, MovedPartMovesThePathWithoutAJump) {
   frame("left", T_left, Phase::kVacuumTracked, 0.04);
   auto p1 = planner->step();

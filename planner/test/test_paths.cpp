@@ -193,6 +193,18 @@ TEST(LoopHeight, OneLayerBelowThePowderButNotBelowThePart) {
   EXPECT_NEAR(loopHeight(part, makePoseRpy({0, 0, 0.0}, 0, 0, 0), 0.0, vc), vc.min_tip_height, 1e-12);
 }
 
+TEST(LoopHeight, UndercutGoesBelowThePartDownToTheFloorClearance) {
+  const PartShape part("cube", parts::byName("cube"));
+  VacuumConfig vc;
+  vc.undercut = 0.01;
+  const Pose T = makePoseRpy({0, 0, 0.05}, 0, 0, 0);  // cube spans z 0.02 .. 0.08
+  EXPECT_NEAR(loopFloor(part, T, vc), 0.01, 1e-9);
+  EXPECT_NEAR(loopHeight(part, T, 0.021, vc), 0.016, 1e-9) << "one layer below the powder, under the bottom";
+  EXPECT_NEAR(loopHeight(part, T, 0.012, vc), 0.01, 1e-9) << "no deeper than the undercut";
+  vc.undercut = 0.05;
+  EXPECT_NEAR(loopFloor(part, T, vc), vc.min_tip_height, 1e-12) << "never below the floor clearance";
+}
+
 TEST(BuriedPart, LoopRunsAroundThePartAtThePowderHeight) {
   // Phase 1: the powder is above the part's top; the loop still circles the part's footprint.
   const PartShape part("cube", parts::byName("cube"));

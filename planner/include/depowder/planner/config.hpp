@@ -25,6 +25,11 @@ struct VacuumConfig {
   double standoff_tolerance = 0.0005;  ///< m, how exactly a waypoint is put at the stand-off
   int min_contour_points = 8;          ///< fewer contour points: the loop is built from the footprint
   bool counter_clockwise = true;       ///< loop direction seen from above
+  /// m the loops may go below the part's lowest point. 0: they stop at its bottom. More: the
+  /// powder the part was printed on is dug away too, in phase 2 and, before the air blast, in
+  /// phase 3 until the powder beside the part is this deep (a perched part then loses its
+  /// support and may topple: paper Fig. 2).
+  double undercut = 0.0;
 };
 
 /// Phase 3: a boustrophedon raster over the part's footprint from the top, tool AIR.

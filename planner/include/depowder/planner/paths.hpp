@@ -47,8 +47,11 @@ struct HeightRange {
 };
 HeightRange partHeights(const PartShape& part, const Pose& T_cell_part);
 
-/// Tip height of the next loop: one layer below the powder, no lower than the part's
-/// bottom or the floor clearance.
+/// Lowest tip height of a loop: `undercut` below the part's bottom, no lower than the floor
+/// clearance.
+double loopFloor(const PartShape& part, const Pose& T_cell_part, const VacuumConfig& config);
+
+/// Tip height of the next loop: one layer below the powder, no lower than loopFloor.
 double loopHeight(const PartShape& part, const Pose& T_cell_part, double powder_height, const VacuumConfig& config);
 
 /// Phases 1-2: pushes the powder contour (ordered closed polyline, cell frame) out to the
