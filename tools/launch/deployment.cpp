@@ -19,6 +19,7 @@ ProcessSpec readProcess(const node::YamlReader& r) {
   r.read("max_restarts", p.max_restarts, 0, 1000);
   r.read("start_delay_s", p.start_delay_s, 0.0, 60.0);
   r.read("ends_run", p.ends_run);
+  r.read("realtime", p.realtime, 0, 99);
   r.finish();
   return p;
 }

@@ -18,6 +18,9 @@ struct ProcessSpec {
   int max_restarts = 10;       ///< then the process is FAILED
   double start_delay_s = 0.0;  ///< wait before starting the next process
   bool ends_run = false;       ///< when it exits, the launcher stops all and exits with its code
+  /// SCHED_FIFO priority (1-99) the process starts with, so other work on the machine cannot
+  /// delay it; 0 = normal scheduling. Without the privilege it runs normally, with a warning.
+  int realtime = 0;
 };
 
 struct HostSpec {

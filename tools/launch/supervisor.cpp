@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -78,6 +79,13 @@ void Supervisor::start(Proc& p) {
     dup2(fds[1], STDOUT_FILENO);
     dup2(fds[1], STDERR_FILENO);
     if (!options_.lcm_url.empty()) setenv("LCM_DEFAULT_URL", options_.lcm_url.c_str(), 1);
+    if (p.spec.realtime > 0) {  // inherited by the program's threads
+      sched_param sp{};
+      sp.sched_priority = p.spec.realtime;
+      if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+        std::fprintf(stderr, "launcher: realtime %d (SCHED_FIFO) not permitted (%s): normal scheduling\n",
+                     p.spec.realtime, std::strerror(errno));
+    }
     std::vector<char*> argv;
     argv.push_back(const_cast<char*>(p.path.c_str()));
     for (auto& a : p.spec.args) argv.push_back(const_cast<char*>(a.c_str()));
