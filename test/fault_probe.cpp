@@ -1,0 +1,497 @@
+// fault_probe: the fault tests' instrument (test/faults.sh). Three jobs:
+//   wait COND      block until the live cell reaches COND (tracking | vacuum); print its utime
+//   garbage        publish random bytes, messages of the wrong type and oversized messages on
+//                  every depowder channel for a bounded time
+//   report CASE    read the run's LCM log and print what the fault did (stop times, gaps, jumps,
+//                  restarts, decode errors), then check it against the limits stated below;
+//                  exit 1 if a check fails
+// Times are wall-clock microseconds (the utime of every depowder message).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <iostream>
+#include <lcm/lcm-cpp.hpp>
+#include <limits>
+#include <map>
+#include <optional>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "depowder/estop_t.hpp"
+#include "depowder/heartbeat_t.hpp"
+#include "depowder/launcher_status_t.hpp"
+#include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/nozzle_plan_t.hpp"
+#include "depowder/part_pose_t.hpp"
+#include "depowder/point_cloud_t.hpp"
+#include "depowder/progress_t.hpp"
+#include "depowder/robot_state_t.hpp"
+#include "depowder/sim_truth_t.hpp"
+#include "depowder/waypoint_t.hpp"
+#include "driver_config.hpp"
+
+using namespace depowder;
+
+namespace {
+
+std::int64_t nowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+int usage() {
+  std::cerr << "usage: fault_probe wait tracking|vacuum [--timeout S]\n"
+               "       fault_probe garbage [--seconds S] [--rate HZ] [--seed N]\n"
+               "       fault_probe report CASE LOG --cell FILE --at UTIME [--until UTIME]\n"
+               "  CASE: tracker_killed | link_cut | estop | garbage | camera_silent | controller_drop\n";
+  return 2;
+}
+
+// ---------------------------------------------------------------- wait
+int waitFor(const std::string& cond, double timeout_s) {
+  lcm::LCM lcm;
+  if (!lcm.good()) return std::cerr << "fault_probe: LCM is not available\n", 1;
+  std::int64_t met = 0;
+  struct Handler {
+    std::string cond;
+    std::int64_t* met;
+    void pose(const lcm::ReceiveBuffer*, const std::string&, const part_pose_t* m) {
+      if (cond == "tracking" && m->status == part_pose_t::TRACKING) *met = m->utime;
+    }
+    void state(const lcm::ReceiveBuffer*, const std::string&, const robot_state_t* m) {
+      if (cond == "vacuum" && m->mode == robot_state_t::MODE_FOLLOWING && m->tool == waypoint_t::TOOL_VACUUM)
+        *met = m->utime;
+    }
+  } h{cond, &met};
+  lcm.subscribe("PART_POSE", &Handler::pose, &h);
+  lcm.subscribe("ROBOT_STATE", &Handler::state, &h);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!met && std::chrono::steady_clock::now() < deadline) lcm.handleTimeout(100);
+  if (!met) return std::cerr << "fault_probe: no '" << cond << "' within " << timeout_s << " s\n", 1;
+  std::cout << met << std::endl;
+  return 0;
+}
+
+// ---------------------------------------------------------------- garbage
+int garbage(double seconds, double rate_hz, unsigned seed) {
+  lcm::LCM lcm;
+  if (!lcm.good()) return std::cerr << "fault_probe: LCM is not available\n", 1;
+  const std::vector<std::string> channels = {"DEPTH_LEFT", "DEPTH_RIGHT", "POINTS",      "PART_POSE",
+                                             "PROGRESS",   "NOZZLE_PLAN", "ROBOT_STATE", "ESTOP",
+                                             "HEARTBEAT",  "LAUNCHER",    "SIM_TRUTH"};
+  std::mt19937 rng(seed);
+  // A well-formed message of another type: decodes nowhere but on its own channel.
+  heartbeat_t wrong;
+  wrong.utime = nowUtime();
+  wrong.process = "fault_probe";
+  std::vector<std::uint8_t> wrong_bytes(wrong.getEncodedSize());
+  wrong.encode(wrong_bytes.data(), 0, static_cast<int>(wrong_bytes.size()));
+  progress_t other;
+  std::vector<std::uint8_t> other_bytes(other.getEncodedSize());
+  other.encode(other_bytes.data(), 0, static_cast<int>(other_bytes.size()));
+  std::int64_t sent = 0, bytes = 0;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  const auto period = std::chrono::duration<double>(1.0 / rate_hz);
+  auto next = std::chrono::steady_clock::now();
+  // Every round, on every channel, one of: random bytes, a valid message of the wrong type, a
+  // right fingerprint with a corrupt body; and one oversized message (1 MB, more than any depowder
+  // message) on one channel in turn.
+  for (int k = 0; std::chrono::steady_clock::now() < end; ++k) {
+    for (const std::string& ch : channels) {
+      std::vector<std::uint8_t> msg;
+      switch (k % 3) {
+        case 0:  // random bytes, 1 B .. 4 kB
+          msg.resize(1 + rng() % 4096);
+          for (auto& b : msg) b = static_cast<std::uint8_t>(rng());
+          break;
+        case 1:  // a valid message of the wrong type (HEARTBEAT gets a progress_t)
+          msg = ch == "HEARTBEAT" ? other_bytes : wrong_bytes;
+          break;
+        case 2:  // a right fingerprint followed by garbage (truncated / corrupt body)
+          msg = ch == "HEARTBEAT" ? wrong_bytes : other_bytes;
+          msg.resize(8 + rng() % 64);
+          for (std::size_t i = 8; i < msg.size(); ++i) msg[i] = static_cast<std::uint8_t>(rng());
+          break;
+      }
+      lcm.publish(ch, msg.data(), static_cast<unsigned>(msg.size()));
+      ++sent;
+      bytes += static_cast<std::int64_t>(msg.size());
+    }
+    std::vector<std::uint8_t> big(1 << 20);
+    for (auto& b : big) b = static_cast<std::uint8_t>(rng());
+    lcm.publish(channels[k % channels.size()], big.data(), static_cast<unsigned>(big.size()));
+    ++sent;
+    bytes += static_cast<std::int64_t>(big.size());
+    next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    std::this_thread::sleep_until(next);
+  }
+  std::cout << "garbage: " << sent << " messages, " << bytes / 1000000.0 << " MB on " << channels.size()
+            << " channels in " << seconds << " s" << std::endl;
+  return 0;
+}
+
+// ---------------------------------------------------------------- report
+struct Log {
+  std::vector<robot_state_t> states;
+  std::vector<part_pose_t> poses;
+  std::vector<sim_truth_t> truths;
+  std::vector<nozzle_plan_t> plans;
+  std::vector<heartbeat_t> heartbeats;
+  std::vector<launcher_status_t> launchers;
+  std::vector<estop_t> estops;
+  std::vector<point_cloud_t> clouds;
+  std::int64_t undecodable = 0;  ///< garbage recorded by the logger
+};
+
+template <typename T>
+bool decodeInto(const lcm::LogEvent* ev, std::vector<T>& out) {
+  T m;
+  try {  // garbage can make the generated decoder throw (a string length beyond the message)
+    if (m.decode(ev->data, 0, ev->datalen) < 0) return false;
+  } catch (const std::exception&) {
+    return false;
+  }
+  out.push_back(std::move(m));
+  return true;
+}
+
+Log readLog(const std::string& path) {
+  lcm::LogFile file(path, "r");
+  if (!file.good()) throw std::runtime_error("cannot read the LCM log " + path);
+  Log log;
+  for (const lcm::LogEvent* ev = file.readNextEvent(); ev; ev = file.readNextEvent()) {
+    const std::string& c = ev->channel;
+    bool ok = true;
+    if (c == "ROBOT_STATE")
+      ok = decodeInto(ev, log.states);
+    else if (c == "PART_POSE")
+      ok = decodeInto(ev, log.poses);
+    else if (c == "SIM_TRUTH")
+      ok = decodeInto(ev, log.truths);
+    else if (c == "NOZZLE_PLAN")
+      ok = decodeInto(ev, log.plans);
+    else if (c == "HEARTBEAT")
+      ok = decodeInto(ev, log.heartbeats);
+    else if (c == "LAUNCHER")
+      ok = decodeInto(ev, log.launchers);
+    else if (c == "ESTOP")
+      ok = decodeInto(ev, log.estops);
+    else if (c == "POINTS")
+      ok = decodeInto(ev, log.clouds);
+    if (!ok) ++log.undecodable;
+  }
+  return log;
+}
+
+Pose poseOf(const pose_t& m) {
+  const std::optional<Pose> p = node::fromMsg(m);
+  if (!p) throw std::runtime_error("a PART_POSE in the log has an invalid pose");
+  return *p;
+}
+
+double rotationDistanceDeg(const Pose& a, const Pose& b) {
+  return rotationAngle(a.linear(), b.linear()) * 180.0 / M_PI;
+}
+
+double maxAbsDiff(const double* a, const double* b) {
+  double m = 0;
+  for (int j = 0; j < 6; ++j) m = std::max(m, std::abs(a[j] - b[j]));
+  return m;
+}
+
+/// The truth nearest in time to `utime` for `part`.
+std::optional<Pose> truthAt(const Log& log, const std::string& part, std::int64_t utime) {
+  const sim_truth_t* best = nullptr;
+  for (const sim_truth_t& t : log.truths)
+    if (!best || std::llabs(t.utime - utime) < std::llabs(best->utime - utime)) best = &t;
+  if (!best || std::llabs(best->utime - utime) > 100000) return std::nullopt;
+  for (const part_truth_t& p : best->parts)
+    if (p.part == part) return node::fromMsg(p.T_cell_part);
+  return std::nullopt;
+}
+
+struct Checker {
+  int failed = 0;
+  void measured(const std::string& what, double value, const char* unit) {
+    std::printf("measured: %s = %.3f %s\n", what.c_str(), value, unit);
+  }
+  void check(bool ok, const std::string& what) {
+    std::printf("%s: %s\n", ok ? "ok" : "FAILED", what.c_str());
+    failed += ok ? 0 : 1;
+  }
+};
+
+/// The largest joint step between consecutive ROBOT_STATEs as a fraction of what qd_max allows
+/// over that interval plus one 8 ms cycle of timing jitter; > 1 is a jump. Before the driver
+/// first reaches the controller its q is unknown (zeros), so that stretch is left out.
+double worstJointStep(const Log& log, const robot::ArmConfig& arm) {
+  double worst = 0;
+  bool connected = false;
+  for (std::size_t i = 1; i < log.states.size(); ++i) {
+    const robot_state_t &a = log.states[i - 1], &b = log.states[i];
+    connected = connected || a.mode != robot_state_t::MODE_DISCONNECTED;
+    if (!connected) continue;
+    const double dt = (b.utime - a.utime) * 1e-6 + 0.008;
+    for (int j = 0; j < 6; ++j) {
+      const double r = std::abs(b.q[j] - a.q[j]) / (arm.qd_max[j] * dt);
+      if (r > 1.0)
+        std::printf("joint %d step %.4f rad in %.1f ms at utime %lld (modes %d -> %d: %s)\n", j + 1, b.q[j] - a.q[j],
+                    (b.utime - a.utime) * 1e-3, static_cast<long long>(b.utime), a.mode, b.mode, b.mode_reason.c_str());
+      worst = std::max(worst, r);
+    }
+  }
+  return worst;
+}
+
+/// First utime >= from after which q stays within `tol` rad of its value until `until`.
+std::optional<std::int64_t> atRestFrom(const Log& log, std::int64_t from, std::int64_t until, double tol = 1e-5) {
+  std::optional<std::int64_t> rest;
+  const robot_state_t* anchor = nullptr;
+  for (const robot_state_t& s : log.states) {
+    if (s.utime < from || s.utime > until) continue;
+    if (!anchor || maxAbsDiff(anchor->q, s.q) > tol) anchor = &s, rest = s.utime;
+  }
+  return rest;
+}
+
+int restartsOf(const Log& log, const std::string& process) {
+  int restarts = 0;
+  for (const launcher_status_t& l : log.launchers)
+    for (const process_status_t& p : l.processes)
+      if (p.name == process) restarts = std::max(restarts, static_cast<int>(p.restarts));
+  return restarts;
+}
+
+int report(const std::string& fault, const std::string& log_path, const std::string& cell_path, std::int64_t at,
+           std::int64_t until) {
+  const Log log = readLog(log_path);
+  const robot::RobotSection robot = robot::readRobotSection(node::loadCell(cell_path));
+  const robot::SafetyConfig& safety = robot.driver.safety;
+  if (until == 0) until = std::numeric_limits<std::int64_t>::max();
+  Checker c;
+  std::printf("fault %s at utime %lld: %zu ROBOT_STATE, %zu PART_POSE, %zu NOZZLE_PLAN, %zu HEARTBEAT in the log\n",
+              fault.c_str(), static_cast<long long>(at), log.states.size(), log.poses.size(), log.plans.size(),
+              log.heartbeats.size());
+  // No nozzle-part contact from the fault until 5 s after it ended (SIM_TRUTH's count).
+  const std::int64_t window_end = (until == std::numeric_limits<std::int64_t>::max() ? at + 20000000 : until) + 5000000;
+  std::int64_t contacts_before = -1, contacts_after = 0;
+  for (const sim_truth_t& t : log.truths) {
+    if (t.utime <= at) contacts_before = t.contact_count;
+    if (t.utime <= window_end) contacts_after = t.contact_count;
+  }
+  if (contacts_before >= 0) {
+    c.measured("nozzle-part contacts from the fault to 5 s after it", contacts_after - contacts_before, "");
+    c.check(contacts_after == contacts_before, "no nozzle-part contact during the fault");
+  }
+  const double jump = worstJointStep(log, robot.driver.arm);
+  c.measured("largest joint step / (qd_max x (dt + 8 ms))", jump, "");
+  c.check(jump <= 1.0, "no joint jump anywhere in the run");
+
+  if (fault == "tracker_killed") {
+    // The tracker died at `at`; the launcher restarts it; it resumes from its state file.
+    const part_pose_t *before = nullptr, *after = nullptr;
+    for (const part_pose_t& p : log.poses) {
+      if (p.utime <= at) before = &p;
+      if (p.utime > at && p.status == part_pose_t::TRACKING && !after) after = &p;
+    }
+    c.check(before && after, "PART_POSE before the kill and TRACKING again after it");
+    if (!before || !after) return 1;
+    const double gap = (after->utime - before->utime) * 1e-6;
+    c.measured("PART_POSE gap (kill, restart, resume)", gap, "s");
+    const Pose P0 = poseOf(before->T_cell_part), P1 = poseOf(after->T_cell_part);
+    c.measured("first pose after restart vs last before: rotation", rotationDistanceDeg(P0, P1), "deg");
+    c.measured("first pose after restart vs last before: translation", translationDistance(P0, P1) * 1000, "mm");
+    bool waited = false;
+    for (const part_pose_t& p : log.poses)
+      if (p.utime > at && p.utime < after->utime && p.status == part_pose_t::WAITING) waited = true;
+    c.check(!waited, "the restarted tracker resumed (no WAITING pose from the initial pose)");
+    // Resuming must not lose accuracy: the first pose after the restart is as close to the truth
+    // as the last one before the kill (within 2 deg / 2 mm: one frame of tracking).
+    const auto truth0 = truthAt(log, before->part, before->utime), truth1 = truthAt(log, after->part, after->utime);
+    c.check(truth0 && truth1, "SIM_TRUTH at both poses");
+    if (truth0 && truth1) {
+      const double r0 = rotationDistanceDeg(*truth0, P0), r1 = rotationDistanceDeg(*truth1, P1);
+      const double t0 = translationDistance(*truth0, P0) * 1000, t1 = translationDistance(*truth1, P1) * 1000;
+      c.measured("error before the kill: rotation", r0, "deg");
+      c.measured("error before the kill: translation", t0, "mm");
+      c.measured("error after the restart: rotation", r1, "deg");
+      c.measured("error after the restart: translation", t1, "mm");
+      c.check(r1 <= r0 + 2 && t1 <= t0 + 2, "the restart lost no accuracy (within 2 deg / 2 mm of before)");
+    }
+    const int restarts = restartsOf(log, "tracker");
+    c.measured("tracker restarts", restarts, "");
+    c.check(restarts >= 1, "the launcher restarted the tracker");
+    // The planner holds: no plan with waypoints from a frame older than stale_s + one frame is
+    // executed while poses are missing; the arm comes to rest.
+    std::int64_t hold_at = 0;
+    for (const nozzle_plan_t& p : log.plans)
+      if (p.utime > before->utime && p.num_waypoints == 0 && !hold_at) hold_at = p.utime;
+    if (hold_at) c.measured("last PART_POSE -> planner's hold plan", (hold_at - before->utime) * 1e-6, "s");
+    const auto rest = atRestFrom(log, at, after->utime);
+    c.check(rest.has_value() && *rest < after->utime,
+            "the arm came to rest while poses were missing (planner hold / driver stale-plan stop)");
+    if (rest) c.measured("kill -> arm at rest", (*rest - at) * 1e-6, "s");
+  } else if (fault == "link_cut") {
+    // The robot host's link is down from `at` to `until`: no plans, no planner heartbeats.
+    const double limit = std::max(safety.plan_max_age_s, safety.planner_heartbeat_timeout_s);
+    const auto rest = atRestFrom(log, at, until);
+    c.check(rest.has_value(), "the arm came to rest during the cut");
+    if (!rest) return 1;
+    c.measured("cut -> arm at rest", (*rest - at) * 1e-6, "s");
+    c.check((*rest - at) * 1e-6 <= limit + 0.1, "at rest within the staleness limit (" + std::to_string(limit) + " s)");
+    std::string reason;
+    for (const robot_state_t& s : log.states)
+      if (s.utime > at && s.utime < until && s.mode == robot_state_t::MODE_HOLDING) reason = s.mode_reason;
+    std::printf("driver's reason: %s\n", reason.c_str());
+    c.check(!reason.empty(), "the driver reported HOLDING during the cut");
+    std::int64_t moved = 0;
+    const robot_state_t* last_still = nullptr;
+    for (const robot_state_t& s : log.states) {
+      if (s.utime <= until)
+        last_still = &s;
+      else if (last_still && maxAbsDiff(last_still->q, s.q) > 1e-5 && !moved)
+        moved = s.utime;
+    }
+    c.check(moved > 0, "the arm moved again after the link returned");
+    if (moved) c.measured("link back -> arm moving again", (moved - until) * 1e-6, "s");
+    std::int64_t plan_after = 0;
+    for (const nozzle_plan_t& p : log.plans)
+      if (p.utime > until && p.num_waypoints > 0 && !plan_after) plan_after = p.utime;
+    c.check(moved == 0 || (plan_after > 0 && plan_after <= moved),
+            "it moved only on a plan made after the link returned");
+  } else if (fault == "estop") {
+    const estop_t* stop = nullptr;
+    const estop_t* reset = nullptr;
+    for (const estop_t& e : log.estops) {
+      if (e.stop && !stop) stop = &e;
+      if (!e.stop && stop && !reset) reset = &e;
+    }
+    c.check(stop && reset, "ESTOP stop and reset in the log");
+    if (!stop || !reset) return 1;
+    const robot_state_t* st = nullptr;
+    for (const robot_state_t& s : log.states)
+      if (s.utime <= stop->utime) st = &s;
+    c.check(st && st->tool == waypoint_t::TOOL_VACUUM && st->mode == robot_state_t::MODE_FOLLOWING,
+            "the arm was vacuuming when ESTOP came");
+    const auto rest = atRestFrom(log, stop->utime, reset->utime);
+    c.check(rest.has_value(), "the arm stayed at rest until the reset");
+    if (!rest) return 1;
+    // ROBOT_STATE comes every 8 ms: the stop is at most that much earlier than seen.
+    const double stop_ms = (*rest - stop->utime) * 1e-3;
+    c.measured("ESTOP -> arm at rest (ROBOT_STATE, 8 ms resolution)", stop_ms, "ms");
+    c.check(stop_ms < 20, "stopped within 20 ms");
+    bool estopped = true;
+    for (const robot_state_t& s : log.states)
+      if (s.utime > *rest && s.utime < reset->utime) estopped = estopped && s.mode == robot_state_t::MODE_ESTOPPED;
+    c.check(estopped, "ESTOPPED until the reset");
+    c.measured("held for", (reset->utime - *rest) * 1e-6, "s");
+    std::int64_t moved = 0;
+    for (const robot_state_t& s : log.states)
+      if (s.utime > reset->utime && s.mode == robot_state_t::MODE_FOLLOWING && !moved) moved = s.utime;
+    c.check(moved > 0, "work resumed after the reset");
+    if (moved) c.measured("reset -> following a plan again", (moved - reset->utime) * 1e-6, "s");
+  } else if (fault == "garbage") {
+    std::map<std::string, std::int64_t> errors;
+    for (const heartbeat_t& h : log.heartbeats) errors[h.process] = std::max(errors[h.process], h.decode_errors);
+    for (const auto& [process, n] : errors)
+      std::printf("decode errors counted by %s: %lld\n", process.c_str(), (long long)n);
+    for (const char* p :
+         {"depowder-tracker", "depowder-progress", "depowder-planner", "depowder-driver", "depowder-camera"})
+      c.check(errors[p] > 0, std::string(p) + " counted the garbage in its heartbeat");
+    int restarts = 0;
+    for (const launcher_status_t& l : log.launchers)
+      for (const process_status_t& p : l.processes) restarts = std::max(restarts, static_cast<int>(p.restarts));
+    c.measured("restarts of any process", restarts, "");
+    c.check(restarts == 0, "no process died");
+    c.measured("undecodable messages recorded by the logger", static_cast<double>(log.undecodable), "");
+  } else if (fault == "camera_silent") {
+    int frames = 0, one_camera = 0, good = 0, poses = 0;
+    double worst_rot = 0, worst_trans = 0;
+    for (const point_cloud_t& p : log.clouds)
+      if (p.utime > at + 500000 && p.utime < until) ++frames, one_camera += p.num_sources == 1;
+    for (const part_pose_t& p : log.poses) {
+      if (p.utime <= at + 500000 || p.utime >= until) continue;
+      ++poses;
+      if (p.status == part_pose_t::TRACKING || p.status == part_pose_t::DEGRADED) ++good;
+      if (const auto truth = truthAt(log, p.part, p.utime)) {
+        worst_rot = std::max(worst_rot, rotationDistanceDeg(*truth, poseOf(p.T_cell_part)));
+        worst_trans = std::max(worst_trans, translationDistance(*truth, poseOf(p.T_cell_part)));
+      }
+    }
+    c.measured("POINTS while one camera was silent", frames, "");
+    c.measured("of them from one camera", one_camera, "");
+    c.check(frames > 0 && one_camera == frames, "POINTS kept coming, from the other camera");
+    c.measured("PART_POSE tracking or degraded while silent", poses ? 100.0 * good / poses : 0, "%");
+    c.check(poses > 0 && good >= 0.9 * poses, "tracking continued (>= 90 % of poses)");
+    c.measured("worst pose error while silent: rotation", worst_rot, "deg");
+    c.measured("worst pose error while silent: translation", worst_trans * 1000, "mm");
+    c.check(worst_rot < 5 && worst_trans < 0.01, "within 5 deg / 10 mm of the truth");
+    std::string said;
+    for (const heartbeat_t& h : log.heartbeats)
+      if (h.process == "depowder-camera" && h.utime > at && h.utime < until && h.state == heartbeat_t::DEGRADED)
+        said = h.state_reason;
+    std::printf("camera proxy said: %s\n", said.c_str());
+    c.check(said.find("silent") != std::string::npos, "the camera proxy reported the silent camera");
+  } else if (fault == "controller_drop") {
+    std::int64_t disconnected = 0, back = 0;
+    std::string why;
+    for (const robot_state_t& s : log.states) {
+      if (s.utime < at) continue;
+      if (s.mode == robot_state_t::MODE_DISCONNECTED && !disconnected) disconnected = s.utime, why = s.mode_reason;
+      if (disconnected && !back && s.mode == robot_state_t::MODE_FOLLOWING) back = s.utime;
+    }
+    std::printf("driver's reason: %s\n", why.c_str());
+    c.check(disconnected > 0, "the driver reported DISCONNECTED");
+    c.check(back > 0, "the driver re-took the arm and followed a plan again");
+    if (disconnected) c.measured("drop -> reported", (disconnected - at) * 1e-3, "ms");
+    if (back) c.measured("drop -> following again", (back - at) * 1e-6, "s");
+    double reconnects = 0;
+    for (const heartbeat_t& h : log.heartbeats)
+      if (h.process == "depowder-driver")
+        for (int i = 0; i < h.num_stats; ++i)
+          if (h.stat_names[i] == "reconnects") reconnects = std::max(reconnects, h.stat_values[i]);
+    c.measured("driver reconnects", reconnects, "");
+    c.check(reconnects >= 1, "the heartbeat counted the reconnect");
+  } else {
+    return usage();
+  }
+  std::printf("%d checks failed\n", c.failed);
+  return c.failed ? 1 : 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) return usage();
+  const std::string cmd = argv[1];
+  std::map<std::string, std::string> opt;
+  std::vector<std::string> pos;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--", 0) == 0) {
+      if (i + 1 >= argc) return usage();
+      opt[a] = argv[++i];
+    } else {
+      pos.push_back(a);
+    }
+  }
+  auto num = [&](const std::string& k, double d) { return opt.count(k) ? std::stod(opt[k]) : d; };
+  try {
+    if (cmd == "wait" && pos.size() == 1) return waitFor(pos[0], num("--timeout", 300));
+    if (cmd == "garbage")
+      return garbage(num("--seconds", 20), num("--rate", 5), static_cast<unsigned>(num("--seed", 1)));
+    if (cmd == "report" && pos.size() == 2 && opt.count("--cell") && opt.count("--at"))
+      return report(pos[0], pos[1], opt["--cell"], std::stoll(opt["--at"]),
+                    opt.count("--until") ? std::stoll(opt["--until"]) : 0);
+  } catch (const std::exception& e) {
+    std::cerr << "fault_probe: " << e.what() << std::endl;
+    return 1;
+  }
+  return usage();
+}

@@ -1,0 +1,169 @@
+#!/bin/sh
+# Fault tests: the cell keeps working and the arm never moves unsafely. Each runs the default
+# cell (config/cell.yaml) in its own network namespaces (test/netns-hosts), injects one fault,
+# records the run with lcm-logger and lets fault_probe measure and check it:
+#   tracker_killed   SIGKILL the tracker mid-run: the launcher restarts it, it resumes from its
+#                    last pose (--state), the planner holds meanwhile; the run completes
+#   link_cut         three hosts; the robot host's LAN cable is pulled for 8 s while its own
+#                    cable to the controller stays: controlled stop within the staleness limit,
+#                    resume only on a fresh plan after the link returns
+#   estop            ESTOP while vacuuming: at rest within 20 ms, nothing moves until the reset
+#   garbage          20 s of random bytes, wrong types and 2 MB messages on every channel: no
+#                    process dies, decode errors counted in heartbeats, the run completes
+#   camera_silent    camera LEFT publishes nothing for 20 s (sim.faults): tracking continues on
+#                    RIGHT, the camera proxy reports it
+#   controller_drop  the controller drops every b-CAP connection (sim.faults): the driver
+#                    reports it, reconnects, re-takes the arm, no jump
+# usage: test/faults.sh BUILD_DIR SOURCE_DIR FAULT   (needs root; prints what it measured)
+set -eu
+BUILD=$1
+SRC=$2
+FAULT=$3
+BIN=$BUILD/bin
+PROBE=$BUILD/tests/fault_probe
+H=$SRC/test/netns-hosts
+[ "$(id -u)" -eq 0 ] || { echo "SKIPPED: needs root for ip netns"; exit 77; }
+dir=$PWD/fault_$FAULT
+rm -rf "$dir" && mkdir -p "$dir" && cd "$dir"
+T=flt$$
+hosts=1
+[ "$FAULT" = link_cut ] && hosts=3
+"$H" up $T $hosts
+launcher_pids=""
+cleanup() {
+  for p in $launcher_pids; do kill -TERM "$p" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+  "$H" down $T
+}
+trap cleanup EXIT
+on() { i=$1; shift; "$H" exec $T "$i" "$@"; }
+now() { date +%s%6N; }
+
+# The cell: the default one with absolute mesh paths, plus the fault's sim.faults entry.
+sed -e "s#mesh: parts/#mesh: $SRC/config/parts/#" "$SRC/config/cell.yaml" > cell.yaml
+case $FAULT in
+camera_silent)   sed -i '/^sim:/a\  faults: [{at: 70, silence_camera: LEFT, duration: 20}]' cell.yaml ;;
+controller_drop) sed -i '/^sim:/a\  faults: [{at: 70, drop_controller: true}]' cell.yaml ;;
+link_cut)  # the controller (the emulator in the sim, host 1) on its own cable to the robot host
+  "$H" link $T 1 3
+  sed -i -e "s#^    host: 127.0.0.1 .*#    host: $("$H" linkip $T 1)#" \
+         -e "s#^  emulator_bind: 127.0.0.1.*#  emulator_bind: 0.0.0.0#" cell.yaml
+  grep -q "host: $("$H" linkip $T 1)" cell.yaml && grep -q "emulator_bind: 0.0.0.0" cell.yaml ;;
+esac
+
+# One deployment; with three hosts: camera (sim, camera proxy), compute (the rest), robot
+# (driver, and its own logger: the robot host keeps recording while its LAN is cut).
+ttl=0; [ $hosts -gt 1 ] && ttl=1
+cat > deploy.yaml <<YAML
+lcm_url: "udpm://239.255.76.67:7667?ttl=$ttl"
+hosts:
+  - name: camera
+    processes:
+      - {name: sim, command: depowder-sim, args: [--cell, "\${CELL}"]}
+      - {name: camera, command: depowder-camera, args: [--cell, "\${CELL}"]}
+  - name: compute
+    processes:
+      - {name: logger, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/run.lcmlog"]}
+      - {name: tracker, command: depowder-tracker, args: [--cell, "\${CELL}", --state, "\${RUN_DIR}/tracker.state"]}
+      - {name: progress, command: depowder-progress, args: [--cell, "\${CELL}"]}
+      - {name: planner, command: depowder-planner, args: [--cell, "\${CELL}"]}
+      - name: monitor
+        command: depowder-monitor
+        args: [--parts, "1", --timeout, "420", --summary, "\${RUN_DIR}/summary.json"]
+        restart: never
+        ends_run: true
+  - name: robot
+    processes:
+      - {name: robotlog, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/robot.lcmlog"]}
+      - {name: driver, command: depowder-driver, args: [--cell, "\${CELL}"], start_delay_s: 0.5}
+YAML
+if [ $hosts -eq 1 ]; then  # every deployment host on the one test host
+  sed -i -e '/^  - name: compute$/,/^    processes:$/d' -e '/^  - name: robot$/,/^    processes:$/d' -e '/robotlog/d' deploy.yaml
+  sed -i -e 's/^  - name: camera$/  - name: local/' deploy.yaml
+fi
+launch() {  # launch HOST_INDEX HOST_NAME
+  on "$1" "$BIN/depowder-launch" deploy.yaml --host "$2" --run-dir "run_$2" --set CELL="$PWD/cell.yaml" \
+    > "launch_$2.out" 2>&1 &
+  launcher_pids="$launcher_pids $!"
+}
+main=local; main_host=1
+if [ $hosts -eq 1 ]; then
+  launch 1 local
+else
+  launch 1 camera; launch 3 robot; launch 2 compute; main=compute; main_host=2
+fi
+main_pid=${launcher_pids##* }
+stop_run() { for p in $launcher_pids; do kill -TERM "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
+wait_run() { wait "$main_pid" || true; }  # the monitor ends it when the part is done
+# The sim's fault line: its frames' utime (camera_silent) or the wall clock (controller_drop).
+sim_fault_utime() {
+  if [ "$FAULT" = camera_silent ]; then
+    sed -n 's/.*fault at t = .* (utime \([0-9]*\), wall utime [0-9]*).*/\1/p' run_*/sim.log | head -1
+  else
+    sed -n 's/.*fault at t = .* (utime [0-9]*, wall utime \([0-9]*\)).*/\1/p' run_*/sim.log | head -1
+  fi
+}
+
+until_opt=""
+case $FAULT in
+tracker_killed)
+  on $main_host "$PROBE" wait tracking --timeout 240 > /dev/null
+  sleep 10
+  tracker=$(ip netns pids "$T-h1" | xargs -r ps -o pid=,comm= -p | awk '$2 == "depowder-tracke" || $2 == "depowder-tracker" {print $1}')
+  [ -n "$tracker" ] || { echo "FAILED: no tracker process to kill"; exit 1; }
+  at=$(now); kill -KILL $tracker
+  echo "killed depowder-tracker (pid $tracker)"
+  wait_run ;;
+link_cut)
+  on 2 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  sleep 3
+  at=$(now); "$H" cut $T 3
+  sleep 8
+  until=$(now); "$H" mend $T 3
+  until_opt="--until $until"
+  sleep 20
+  stop_run ;;
+estop)
+  on 1 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  sleep 2
+  at=$(now); on 1 "$BIN/depowder-estop" stop --reason "fault test"
+  sleep 3
+  on 1 "$BIN/depowder-estop" reset --reason "fault test"
+  sleep 10
+  stop_run ;;
+garbage)
+  on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
+  at=$(now); on 1 "$PROBE" garbage --seconds 20 --rate 5 --seed 1
+  wait_run ;;
+camera_silent | controller_drop)
+  # sim.faults at t = 70 s; 20 s of it, then 10 s more.
+  on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
+  while [ -z "$(sim_fault_utime)" ]; do sleep 1; done
+  at=$(sim_fault_utime)
+  [ "$FAULT" = camera_silent ] && until_opt="--until $((at + 20000000))"
+  sleep 30
+  stop_run ;;
+*) echo "unknown fault $FAULT"; exit 2 ;;
+esac
+trap - EXIT
+stop_run
+"$H" down $T
+
+log=run_$main/run.lcmlog
+[ "$FAULT" = link_cut ] && log=run_robot/robot.lcmlog
+set +e
+# shellcheck disable=SC2086
+"$BUILD/tests/fault_probe" report "$FAULT" "$log" --cell cell.yaml --at "$at" $until_opt
+code=$?
+set -e
+case $FAULT in
+tracker_killed | garbage)  # these runs must still finish the part
+  grep -A14 "run summary" "launch_$main.out" || true
+  # (contacts away from the fault come from tracking accuracy: the summary above prints them)
+  if grep -q '"done": true' "run_$main/summary.json"; then
+    echo "ok: the run completed"
+  else
+    echo "FAILED: the run did not complete cleanly (run_$main/summary.json)"; code=1
+  fi ;;
+esac
+exit $code
