@@ -197,7 +197,8 @@ int main(int argc, char** argv) {
         if (fault_done[i] || t < f.at) continue;
         fault_done[i] = true;
         if (f.drop_controller && emulator) emulator->dropConnections();
-        std::cout << "depowder-sim: fault at t = " << t << " s (utime " << utimeAt(t) << "): "
+        std::cout << "depowder-sim: fault at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
+                  << node::nowUtime() << "): "
                   << (f.drop_controller
                           ? std::string("controller connections dropped")
                           : "camera " + f.silence_camera + " silent for " + std::to_string(f.duration) + " s")
