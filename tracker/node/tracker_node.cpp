@@ -71,6 +71,8 @@ TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions&
     parts.emplace_back(p.name, loadMesh(p.mesh, p.mesh_scale), T_init, p.xi, options_.tracker);
   }
   trackers_ = std::make_unique<MultiTracker>(std::move(parts), options_.threads);
+  if (options_.cull_with_cameras)
+    for (const node::CameraConfig& cam : cell.cameras) cameras_[cam.name] = cam.T_cell_camera.translation();
   published_version_.assign(trackers_->size(), -1);
   encoded_.resize(trackers_->size());
 }
@@ -149,8 +151,19 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
     }
     stats_.last_problem = "POINTS: " + why;
   } else {
-    const std::vector<TrackResult> results = trackers_->track(*cloud);
+    // Cull the template with the cameras that saw this frame: with one silent, the points only
+    // it could see are not in the scan and would pull ICP onto the powder.
+    std::vector<Point> seen_from;
+    std::string seen_names;
+    for (const std::string& source : msg.sources)
+      if (const auto cam = cameras_.find(source); cam != cameras_.end()) {
+        seen_from.push_back(cam->second);
+        seen_names += (seen_names.empty() ? "" : ", ") + source;
+      }
+    const bool partial = !seen_from.empty() && seen_from.size() < cameras_.size();
+    const std::vector<TrackResult> results = partial ? trackers_->track(*cloud, seen_from) : trackers_->track(*cloud);
     stats_.last_problem.clear();
+    if (partial) stats_.last_problem = "POINTS from " + seen_names + " only: tracking on those cameras";
     for (std::size_t i = 0; i < results.size(); ++i) {
       out.push_back(toMessage(msg.utime, i, results[i]));
       if (trackers_->part(i).started()) last_poses_[trackers_->part(i).name()] = {results[i].T_cell_part, msg.utime};

@@ -72,6 +72,7 @@ class TrackerNode {
   std::deque<double> recent_ms_;
   Stats stats_;
   std::map<std::string, SavedPose> last_poses_;
+  std::map<std::string, Point> cameras_;  ///< name -> position (cell), for per-frame culling
 };
 
 }  // namespace depowder::tracker

@@ -99,4 +99,10 @@ std::vector<TrackResult> MultiTracker::track(const Cloud& scan) {
   return results;
 }
 
+std::vector<TrackResult> MultiTracker::track(const Cloud& scan, const std::vector<Point>& viewpoints) {
+  std::vector<TrackResult> results(parts_.size());
+  pool_->run(parts_.size(), [&](std::size_t i) { results[i] = parts_[i].track(scan, viewpoints); });
+  return results;
+}
+
 }  // namespace depowder::tracker

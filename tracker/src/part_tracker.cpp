@@ -86,7 +86,9 @@ TrackResult PartTracker::refuse(TrackResult r, std::string why) const {
   return r;
 }
 
-TrackResult PartTracker::track(const Cloud& scan) {
+TrackResult PartTracker::track(const Cloud& scan) { return track(scan, config_.viewpoints); }
+
+TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& viewpoints) {
   const Clock::time_point t_start = Clock::now();
   TrackResult r;
   r.T_cell_part = T_cell_part_;
@@ -154,10 +156,10 @@ TrackResult PartTracker::track(const Cloud& scan) {
   t0 = Clock::now();
   const Cloud* src = &icp_points_;
   const Cloud* src_n = &icp_normals_;
-  if (!config_.viewpoints.empty()) {
+  if (!viewpoints.empty()) {
     // Template points whose outward normal faces away from every camera cannot be in the scan
     // (the underside of a blade); they would only match powder or the far wall.
-    facing(icp_points_, icp_normals_, T_cell_part_, config_.viewpoints, visible_points_, visible_normals_);
+    facing(icp_points_, icp_normals_, T_cell_part_, viewpoints, visible_points_, visible_normals_);
     src = &visible_points_;
     src_n = &visible_normals_;
   }

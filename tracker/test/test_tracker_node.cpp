@@ -197,6 +197,33 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
   rmdir(dir);
 }
 
+TEST(TrackerNode, WithOneCameraSilentTrackingGoesOnWithTheOther) {
+  // Frames seen by RIGHT alone (LEFT silent), said so in POINTS' sources: the template is culled
+  // with RIGHT only, both parts keep tracking, and the heartbeat's problem names it.
+  const TwoParts s;
+  const node::CellConfig cell = node::loadCellFromString(s.yaml());
+  TrackerNode node(cell, readTrackerOptions(cell));
+  scene::SceneConfig right_only;
+  right_only.cameras = {scene::defaultCameras()[1]};
+  std::mt19937 rng(9);
+  std::vector<part_pose_t> out;
+  for (int k = 0; k < 5; ++k) {
+    point_cloud_t msg = node::encodeCloud(
+        scene::render({{&s.cube, s.cube_truth}, {&s.owl, s.owl_truth}}, 0.02, right_only, rng), 100 + k);
+    msg.sources = {"RIGHT"};
+    msg.source_utimes = {100 + k};
+    msg.num_sources = 1;
+    out = node.onPoints(msg);
+    for (const part_pose_t& m : out) EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
+  }
+  EXPECT_NE(node.stats().last_problem.find("POINTS from RIGHT only"), std::string::npos) << node.stats().last_problem;
+  const Pose cube = *node::fromMsg(out[0].T_cell_part), owl = *node::fromMsg(out[1].T_cell_part);
+  EXPECT_LT(translationDistance(cube, s.cube_truth), 0.003);
+  EXPECT_LT(rotationAngle(cube.linear(), s.cube_truth.linear()) * 180 / M_PI, 3.0);
+  EXPECT_LT(translationDistance(owl, s.owl_truth), 0.003);
+  EXPECT_LT(rotationAngle(owl.linear(), s.owl_truth.linear()) * 180 / M_PI, 3.0);
+}
+
 TEST(TrackerNode, BadFramesAreReportedAndTrackingGoesOn) {
   const TwoParts s;
   const node::CellConfig cell = node::loadCellFromString(s.yaml("{method: continuous}"));

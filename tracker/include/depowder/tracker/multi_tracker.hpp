@@ -21,6 +21,8 @@ class MultiTracker {
 
   /// Tracks every part on `scan`; results in the order of the parts.
   std::vector<TrackResult> track(const Cloud& scan);
+  /// The same with this frame's camera positions (PartTracker::track).
+  std::vector<TrackResult> track(const Cloud& scan, const std::vector<Point>& viewpoints);
 
   std::size_t size() const { return parts_.size(); }
   int threads() const;

@@ -60,6 +60,9 @@ class PartTracker {
   /// One frame: `scan` is P_i in the cell frame. Never throws for bad data; the result
   /// says what happened.
   TrackResult track(const Cloud& scan);
+  /// The same, with the positions of the cameras that saw this frame (cell frame) in place of
+  /// config.viewpoints: with a camera silent, template points only it could see are left out.
+  TrackResult track(const Cloud& scan, const std::vector<Point>& viewpoints);
 
   const std::string& name() const { return name_; }
   Method method() const { return config_.method; }
