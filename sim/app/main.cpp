@@ -220,6 +220,11 @@ int main(int argc, char** argv) {
         if (now < due) std::this_thread::sleep_until(due);
       }
 
+      // Every message of this step carries one utime: in real time the wall clock now (a real
+      // camera's capture time: if the sim falls behind, its frames are not stamped in the past,
+      // where the driver would find every plan stale), with --fast the simulated time.
+      const std::int64_t step_utime = fast ? utimeAt(t) : node::nowUtime();
+
       // 3d. Cameras whose next frame time has come.
       for (std::size_t c = 0; c < frames_due.size(); ++c) {
         const double rate = world->cameras()[c].rate_hz;
@@ -230,14 +235,14 @@ int main(int argc, char** argv) {
         const DepthImage img = world->render(c);
         render_ms = 0.95 * render_ms +
                     0.05 * std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - r0).count();
-        bus.publish("DEPTH_" + img.camera, toMsg(img, utimeAt(t)));
+        bus.publish("DEPTH_" + img.camera, toMsg(img, step_utime));
         ++frames;
       }
 
       // 3e. Ground truth (evaluation only).
       if (t + 1e-9 >= truth_due / setup.truth_hz) {
         while (truth_due / setup.truth_hz <= t + 1e-9) ++truth_due;
-        bus.publish("SIM_TRUTH", toMsg(world->truth(), utimeAt(t)));
+        bus.publish("SIM_TRUTH", toMsg(world->truth(), step_utime));
       }
 
       // 3f. Heartbeat.
