@@ -44,6 +44,7 @@ struct CellPlanner::PartState {
   std::optional<ProgressInput> progress;
   double powder = std::nan("");    ///< last h_pow from a progress message with a contour
   std::int64_t failed_utime = -1;  ///< newest input utime when planning last failed (retry after newer)
+  bool blasting = false;           ///< its air blast has begun (undercut done); until it leaves phase 3
 };
 
 namespace {
@@ -282,8 +283,10 @@ std::optional<Plan> CellPlanner::step() {
 
     // 3b. Undercut (vacuum.undercut): before the air blast, vacuum loops until the powder beside
     //     the part is down to the loops' floor below its bottom (one layer of slack: the powder
-    //     next to the nozzle stays a little higher than under it).
-    if (phase == Phase::kAirBlast && config_.vacuum.undercut > 0 && std::isfinite(s.powder) &&
+    //     next to the nozzle stays a little higher than under it). Once the air blast has begun
+    //     it goes on (the measured height hovers about the threshold) until phase 3 ends.
+    if (phase != Phase::kAirBlast) s.blasting = false;
+    if (phase == Phase::kAirBlast && !s.blasting && config_.vacuum.undercut > 0 && std::isfinite(s.powder) &&
         s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth)
       phase = Phase::kVacuumTracked;
 
@@ -326,6 +329,7 @@ std::optional<Plan> CellPlanner::step() {
     }
     if (!same) ++report.cycles;
     s.failed_utime = -1;
+    if (phase == Phase::kAirBlast) s.blasting = true;
     report.note.clear();
     active_part_ = part;
     active_phase_ = phase;

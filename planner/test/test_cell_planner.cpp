@@ -155,6 +155,14 @@ TEST_F(CellTest, UndercutVacuumsBelowThePartBeforeTheAirBlast) {
   EXPECT_EQ(air->phase, Phase::kAirBlast);
   EXPECT_GT(withTool(*air, Tool::kAir).size(), 10u);
   EXPECT_TRUE(withTool(*air, Tool::kVacuum).empty());
+  // The measured height rises back over the threshold: the air blast goes on.
+  robotAt(*air, 3);
+  utime += kSecond;
+  frame("left", T_left, Phase::kAirBlast, 0.016);
+  auto more = planner->step();
+  ASSERT_TRUE(more && more->hasWaypoints()) << "a refresh of the raster";
+  EXPECT_EQ(more->phase, Phase::kAirBlast) << more->reason;
+  EXPECT_TRUE(withTool(*more, Tool::kVacuum).empty());
 }
 
 TEST_F(CellTest, MovedPartMovesThePathWithoutAJump) {
