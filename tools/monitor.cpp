@@ -232,10 +232,20 @@ int main(int argc, char** argv) {
         "  latency depth->PART_POSE p50 %.1f p99 %.1f ms; depth->NOZZLE_PLAN p50 %.1f p99 %.1f ms (%zu plans)\n",
         percentile(pose_latency_ms, 0.5), percentile(pose_latency_ms, 0.99), percentile(plan_latency_ms, 0.5),
         percentile(plan_latency_ms, 0.99), plan_latency_ms.size());
+    // The machine's load (other jobs share the cores): latency figures mean little without it.
+    double load[3];
+    std::ifstream loadavg("/proc/loadavg");
+    if (!(loadavg >> load[0] >> load[1] >> load[2])) load[0] = load[1] = load[2] = -1;  // -1: not known
+    std::printf("  machine load average 1 / 5 / 15 min: %.2f / %.2f / %.2f\n", load[0], load[1], load[2]);
     std::printf("  %-22s %6s %9s %8s %7s\n", "process", "cpu%", "peak_MB", "dropped", "decode");
     json << "\n  ],\n  \"contacts\": " << contacts << ",\n  \"limit_violations\": " << limit_violations
          << ",\n  \"points_lost\": " << points_lost << ",\n  \"part_pose_missing\": " << poses_missing
-         << ",\n  \"plan_latency_ms_p99\": " << percentile(plan_latency_ms, 0.99) << ",\n  \"processes\": {";
+         << ",\n  \"points_seen\": " << points_seen
+         << ",\n  \"pose_latency_ms_p50\": " << percentile(pose_latency_ms, 0.5)
+         << ",\n  \"pose_latency_ms_p99\": " << percentile(pose_latency_ms, 0.99)
+         << ",\n  \"plan_latency_ms_p50\": " << percentile(plan_latency_ms, 0.5)
+         << ",\n  \"plan_latency_ms_p99\": " << percentile(plan_latency_ms, 0.99) << ",\n  \"load_average\": ["
+         << load[0] << ", " << load[1] << ", " << load[2] << "],\n  \"processes\": {";
     first = true;
     for (const auto& [name, h] : processes) {
       std::printf("  %-22s %6.1f %9.1f %8lld %7lld\n", name.c_str(), h.cpu_percent, h.peak_rss_kb / 1024.0,
