@@ -197,9 +197,11 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   r.eta = eta_;
   r.timing.progress_ms += msSince(t0);
 
-  // Lines 12-16: the update policy, the one place the three methods differ.
+  // Lines 12-16: the update policy, the one place the three methods differ. A doubtful fit
+  // (DEGRADED: the part mostly occluded, e.g. by the nozzle) does not re-derive the template, in
+  // any method: Alg. 2 at a wrong pose would lock the error in.
   r.update = decideTemplateUpdate(config_.method, T_cell_part_, eta_, last_update_, thresholdsOf(config_));
-  if (r.update.update) {
+  if (r.update.update && r.status == TrackStatus::kTracking) {
     t0 = Clock::now();
     setTemplate(deriveTemplate(cad_.points, T_cell_part_, grid, xi_));  // line 13, Alg. 2
     r.timing.template_ms += msSince(t0);

@@ -43,7 +43,7 @@ struct IcpConfig {
 struct StatusConfig {
   double tracking_min_inlier_ratio = 0.5;  ///< below: DEGRADED (pose kept but doubtful)
   double tracking_max_rms = 0.003;         ///< m RMS point-to-plane residual; above: DEGRADED
-  double lost_min_inlier_ratio = 0.1;      ///< below: LOST (pose refused, last good pose kept)
+  double lost_min_inlier_ratio = 0.3;      ///< below: LOST (pose refused, last good pose kept)
   double lost_max_rms = 0.006;             ///< m; above: LOST
 };
 
