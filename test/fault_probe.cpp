@@ -451,6 +451,13 @@ int report(const std::string& fault, const std::string& log_path, const std::str
         said = h.state_reason;
     std::printf("camera proxy said: %s\n", said.c_str());
     c.check(said.find("silent") != std::string::npos, "the camera proxy reported the silent camera");
+    std::string tracker_said;
+    for (const heartbeat_t& h : log.heartbeats)
+      if (h.process == "depowder-tracker" && h.utime > at && h.utime < until &&
+          h.state_reason.find(" only") != std::string::npos)
+        tracker_said = h.state_reason;
+    std::printf("tracker said: %s\n", tracker_said.c_str());
+    c.check(!tracker_said.empty(), "the tracker reported tracking on the remaining camera");
   } else if (fault == "controller_drop") {
     // Reported: a DISCONNECTED ROBOT_STATE (ROBOT_STATE comes every 8 ms: a reconnect faster than
     // that shows only in the heartbeat's counter), then the reconnect counted in the heartbeat.
