@@ -87,6 +87,9 @@ PlannerNodeOptions readPlannerOptions(const node::CellConfig& cell) {
   p.read("rotation_deg", c.replan.rotation_deg, 0.0, 90.0);
   p.read("stale_s", c.replan.stale_s, 0.05, 60.0);
   p.read("refresh_s", c.replan.refresh_s, 0.05, 60.0);
+  p.read("settle_s", c.replan.settle_s, 0.0, 60.0);
+  p.read("moving_translation", c.replan.moving_translation, 0.001, 0.5);
+  p.read("moving_rotation_deg", c.replan.moving_rotation_deg, 0.1, 180.0);
   p.finish();
   if (c.replan.refresh_s >= robot.driver.safety.plan_max_age_s)
     p.fail("refresh_s", "must be shorter than robot.plan_max_age, or the driver stops running plans");

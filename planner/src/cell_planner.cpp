@@ -45,6 +45,8 @@ struct CellPlanner::PartState {
   double powder = std::nan("");    ///< last h_pow from a progress message with a contour
   std::int64_t failed_utime = -1;  ///< newest input utime when planning last failed (retry after newer)
   bool blasting = false;           ///< its air blast has begun (undercut done); until it leaves phase 3
+  std::optional<Pose> still_pose;  ///< tracked pose the part has kept within the moving thresholds...
+  std::int64_t moved_utime = -1;   ///< ...since this frame (-1: not since tracking began)
 };
 
 namespace {
@@ -99,6 +101,18 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
     return {InputStatus::kOutOfOrder, "PART_POSE of " + in.part + " is older than the last one"};
   s.pose = in;
   newest_utime_ = std::max(newest_utime_, in.utime);
+  // Motion watch (replan.settle_s) from the first tracked pose on: the jump from the printed pose
+  // to the first ICP estimate is not a motion.
+  if (in.status == TrackStatus::kTracking || in.status == TrackStatus::kDegraded) {
+    if (!s.still_pose) {
+      s.still_pose = in.T_cell_part;
+    } else if (translationDistance(in.T_cell_part, *s.still_pose) > config_.replan.moving_translation ||
+               rotationAngle(in.T_cell_part.linear(), s.still_pose->linear()) >
+                   config_.replan.moving_rotation_deg * kPi / 180) {
+      s.still_pose = in.T_cell_part;
+      s.moved_utime = in.utime;
+    }
+  }
   return {};
 }
 
@@ -227,6 +241,15 @@ std::optional<Plan> CellPlanner::step() {
     return home("all parts done", newest_utime_);
   }
   finished_ = false;
+
+  // 1b. A part on the move (toppling, pushed): away from it until it keeps still (settle_s).
+  if (config_.replan.settle_s > 0) {
+    std::string moving;
+    for (std::size_t i = 0; i < states_.size(); ++i)
+      if (states_[i].moved_utime >= 0 && seconds(newest_utime_ - states_[i].moved_utime) < config_.replan.settle_s)
+        moving += (moving.empty() ? "" : ", ") + reports_[i].name;
+    if (!moving.empty()) return home("moving: " + moving + "; waiting until still", newest_utime_);
+  }
 
   // 2. Which part: stay on the active one until its cycle finishes, then the others in turn.
   const bool cycle_done = active_is_cycle_ && cycleFinished();

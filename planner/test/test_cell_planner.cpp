@@ -198,6 +198,44 @@ TEST_F(CellTest, MovedPartMovesThePathWithoutAJump) {
   EXPECT_FALSE(planner->step());
 }
 
+TEST_F(CellTest, MovingPartSendsTheNozzleAwayUntilItKeepsStill) {
+  config.replan.settle_s = 1.0;  // moving: > 1 cm or > 5 deg (the defaults) within 1 s
+  SetUp();
+  // The first tracked pose (here the printed one) starts the watch; a loop around it.
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints()) << (p1 ? p1->reason : "");
+  EXPECT_EQ(p1->phase, Phase::kVacuumTracked);
+  robotAt(*p1, 20);
+  // The cube starts to tip over about y: the nozzle goes home, tool off.
+  const Pose tipped = T_left * makePoseRpy({0, 0, 0}, 0, 0.15, 0);  // 8.6 deg
+  for (int k = 0; k < 3; ++k) {
+    utime += 33000;
+    frame("left", tipped, Phase::kVacuumTracked, 0.04);
+  }
+  auto away = planner->step();
+  ASSERT_TRUE(away && away->hasWaypoints()) << (away ? away->reason : "");
+  EXPECT_NE(away->reason.find("moving: left"), std::string::npos) << away->reason;
+  EXPECT_FALSE(withTool(*away, Tool::kOff).empty());
+  EXPECT_TRUE(withTool(*away, Tool::kVacuum).empty());
+  EXPECT_TRUE(withTool(*away, Tool::kAir).empty());
+  EXPECT_TRUE(check(*away, tipped, T_right).clean()) << check(*away, tipped, T_right).first;
+  // Still for less than settle_s: it waits (no new loop).
+  robotAt(*away, static_cast<int>(away->waypoints.size()));
+  utime += kSecond / 2;
+  frame("left", tipped, Phase::kVacuumTracked, 0.04);
+  auto wait = planner->step();
+  EXPECT_TRUE(!wait || wait->reason.find("moving: left") != std::string::npos) << wait->reason;
+  // Still for longer: a loop around the new pose.
+  utime += kSecond / 2 + 33000;
+  frame("left", tipped, Phase::kVacuumTracked, 0.04);
+  auto resumed = planner->step();
+  ASSERT_TRUE(resumed && resumed->hasWaypoints()) << (resumed ? resumed->reason : "");
+  EXPECT_EQ(resumed->phase, Phase::kVacuumTracked) << resumed->reason;
+  EXPECT_GT(withTool(*resumed, Tool::kVacuum).size(), 20u);
+  EXPECT_TRUE(check(*resumed, tipped, T_right).clean()) << check(*resumed, tipped, T_right).first;
+}
+
 TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFrom) {
   // The paper's toppling pipe: the part moves towards the nozzle, into the margins (not into
   // the nozzle itself). The nozzle backs straight out, then runs the new loop.

@@ -75,6 +75,13 @@ struct ReplanConfig {
   /// s; a running plan is re-sent (its remaining waypoints, stamped with the newest frame) when
   /// it is older than this, because the driver stops a plan older than robot.plan_max_age (1.5 s).
   double refresh_s = 0.5;
+  /// s; > 0: a tracked part whose pose has moved by more than moving_translation or
+  /// moving_rotation_deg within this time is moving (it topples, or is pushed): the nozzle goes
+  /// home and waits until every part has kept still this long, then plans around the new pose
+  /// (paper Fig. 2). 0: off (the nozzle only backs away from a part that enters its margins).
+  double settle_s = 0.0;
+  double moving_translation = 0.01;  ///< m
+  double moving_rotation_deg = 5.0;  ///< deg
 };
 
 struct PlannerConfig {
