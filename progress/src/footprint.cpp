@@ -183,6 +183,10 @@ double Footprint::distance(const Point2& p, double radius) const {
   return hit.found() ? std::sqrt(hit.distance2) : kInf;
 }
 
+bool Footprint::within(const Point2& p, double radius) const {
+  return flat_ && grid_.anyWithin(Eigen::Vector3d(p.x(), p.y(), 0.0), radius);
+}
+
 double Footprint::rasterDistance(const Point2& p) const {
   const int c = cellIndex(p);
   return c < 0 ? kInf : field_[c];

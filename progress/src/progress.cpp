@@ -159,9 +159,9 @@ bool segmentAndEstimate(const PosedPart& g, const Cloud& scan, double xi, const 
         continue;
       }
     }
-    const bool over_part = f < r_in - slack;                            // includes the holes (-1)
-    const double d = over_part ? 0.0 : g.footprint.distance(q, r_out);  // +inf beyond the band
-    if (d <= r_in || !g.footprint.outside(q)) {
+    // Within r_in of the silhouette (exact 2-D distance), or inside it (holes: -1).
+    const bool over_part = f < r_in - slack || g.footprint.within(q, r_in);
+    if (over_part || !g.footprint.outside(q)) {
       // Over the part: its top when the part is buried (paper footnote), else powder on or in it.
       if (p.z() >= out.h_max - xi && p.z() <= out.h_max + config.cover_margin) {
         ++out.part_points;
@@ -169,7 +169,7 @@ bool segmentAndEstimate(const PosedPart& g, const Cloud& scan, double xi, const 
       }
       continue;
     }
-    if (d > r_in && d <= r_out) candidates.push_back(p);
+    if (g.footprint.within(q, r_out)) candidates.push_back(p);  // in (r_in, r_out]
   }
   if (finite == 0)
     return fail(out, Status::kNoPoints, "all " + std::to_string(scan.size()) + " points are NaN/inf"), false;

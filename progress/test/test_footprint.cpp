@@ -33,6 +33,9 @@ TEST(Footprint, ExactDistanceAndInsideOutside) {
   const Footprint fp(cad, 0.002, 0.01, 0.03);
   EXPECT_NEAR(fp.distance({half + 0.012, 0.0}, 0.02), 0.012, 1e-9);  // samples on the x = half face
   EXPECT_TRUE(std::isinf(fp.distance({half + 0.025, 0.0}, 0.02)));
+  EXPECT_TRUE(fp.within({half + 0.012, 0.0}, 0.0121));
+  EXPECT_FALSE(fp.within({half + 0.012, 0.0}, 0.0119));
+  EXPECT_FALSE(fp.within({1.0, 1.0}, 0.02));
   EXPECT_FALSE(fp.outside({0, 0}));
   EXPECT_FALSE(fp.outside({half + 0.008, 0}));  // within close_radius
   EXPECT_TRUE(fp.outside({half + 0.013, 0}));

@@ -37,6 +37,8 @@ class Footprint {
   /// Exact 2-D distance from p to the nearest projected CAD sample if it is within `radius`,
   /// else +inf.
   double distance(const Point2& p, double radius) const;
+  /// distance(p, radius) <= radius, found sooner: stops at the first projected sample in range.
+  bool within(const Point2& p, double radius) const;
 
   /// The outermost closed iso-line at `level` m from the silhouette (level > close_radius),
   /// counter-clockwise, resampled every `spacing` m (at least 8 vertices). Empty if none.
