@@ -80,6 +80,7 @@ void applySet(TrackerConfig& c, const std::string& kv) {
                                         {"icp.weak_direction", &c.icp.weak_direction},
                                         {"progress.grid_cell", &c.progress.grid_cell},
                                         {"progress.contour_spacing", &c.progress.contour_spacing},
+                                        {"progress.footprint_reuse", &c.progress.footprint_reuse},
                                         {"icp.max_step_rotation", &c.icp.max_step_rotation}};
   if (key == "icp.max_iterations") {
     c.icp.max_iterations = static_cast<int>(v);
