@@ -72,8 +72,23 @@ PushScript::PushScript(const World& world, const PushSpec& spec) : world_(world)
   side_ = Eigen::Vector3d(-dir_.y(), dir_.x(), 0);
   const Pose& T = world.part(spec.part).T_cell_part;
   const Eigen::Vector3d contact = T * spec.contact_part;
-  tip_ = contact - dir_ * (world.config().nozzle.radius + spec.gap);
+  const double radius = world.config().nozzle.radius;
+  tip_ = contact - dir_ * (radius + spec.gap);
   push_z_ = std::max(contact.z() - spec.tip_below, 0.003);
+  // The nozzle comes down beside the part, not onto it: where the contact face is oblique to the
+  // push (or an edge or overhang is nearer than the contact point), step back along the push line
+  // until no part of the surface above the tip's pushing height is within radius + gap of its axis.
+  const double clear = radius + spec.gap;
+  const Cloud surface = sampleSurface(world.part(spec.part).mesh, 0.002).points;
+  for (int back = 0; back < 200; ++back) {  // at most 20 cm
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3d& q : surface) {
+      const Eigen::Vector3d p = T * q;
+      if (p.z() >= push_z_) nearest = std::min(nearest, (p - tip_).head<2>().norm());
+    }
+    if (nearest >= clear - 1e-4) break;
+    tip_ -= dir_ * 0.001;
+  }
   const double top = std::max(posedBounds(world, spec.part).max().z(), world.powder().surfaceAt(tip_.head<2>()));
   high_z_ = top + spec.clearance;
   tip_.z() = high_z_;

@@ -136,3 +136,37 @@ INSTANTIATE_TEST_SUITE_P(
                       PushCase{"from_plus_y_steered", {0.0, -0.04}, 90, 0.015, true, 0},
                       PushCase{"diagonal", {-0.1, -0.05}, 45, 0.0, true, 0}),
     [](const ::testing::TestParamInfo<PushCase>& param) { return std::string(param.param.name); });
+
+TEST(Physics, NozzleComesDownBesideAnObliqueFaceAndThePushSlides) {
+  // A push 55 deg oblique to the cube's -x face: a nozzle placed radius + gap back along the push
+  // line from the contact point would come down on the cube's top edge (which pressed it into the
+  // powder and tipped it over before the push began). It must come down beside it, and pushed just
+  // above the powder line the cube slides to the wall.
+  SimConfig config = physicsConfig();
+  config.powder.level = 0.03;  // half the cube's height: visibility 0.5
+  const Pose T0 = at(-0.05, -0.05, 0.03);
+  World world(config, BoxGeometry{}, {{"cube", parts::cube(), T0, 1000}}, {});
+  PushSpec spec;
+  spec.contact_part = Eigen::Vector3d(-0.03, 0.0, 0.006);  // 60 % of the height, on the -x face
+  spec.direction = Eigen::Vector3d(std::cos(55 * M_PI / 180), std::sin(55 * M_PI / 180), 0);
+  spec.speed = 0.02;
+  PushScript push(world, spec);
+  double max_tilt = 0;
+  bool moved_before_push = false;
+  for (int k = 1; k <= 30 * 120 && push.phase() != PushPhase::kDone; ++k) {
+    const ArmState a = push.update(k * kDt);
+    world.setNozzle(a.T_cell_nozzle, a.tool);
+    world.step(kDt);
+    const Pose& T = world.part(0).T_cell_part;
+    if (push.phase() == PushPhase::kDescend)
+      moved_before_push = moved_before_push || translationDistance(T, T0) > 0.0005 ||
+                          rotationAngle(T.linear(), T0.linear()) > 0.5 * M_PI / 180;
+    max_tilt = std::max(max_tilt, std::acos(std::clamp(up(T).z(), -1.0, 1.0)) * 180 / M_PI);
+  }
+  EXPECT_FALSE(moved_before_push);
+  EXPECT_EQ(push.outcome(), PushOutcome::kReachedWall);
+  EXPECT_LT(max_tilt, 5.0);  // slid (and turned about the vertical), did not tip
+  EXPECT_GT(translationDistance(world.part(0).T_cell_part, T0), 0.08);
+  std::printf("oblique push: moved %.1f cm, largest tilt %.2f deg\n",
+              100 * translationDistance(world.part(0).T_cell_part, T0), max_tilt);
+}

@@ -28,7 +28,8 @@ struct PushSpec {
   double speed = 0.02;                                     ///< m/s along `direction` while pushing
   double approach_speed = 0.05;                            ///< m/s descending to the contact height and retracting
   double clearance = 0.03;  ///< m above the part's top (and the powder) where the nozzle comes in and leaves
-  double gap = 0.005;       ///< m between the nozzle's side and the contact point before the push
+  double gap = 0.005;       ///< m between the nozzle's side and the part before the push (the nozzle starts
+                            ///< further back along the push line where an edge or oblique face is nearer)
   double tip_below = 0.01;  ///< m the tip goes below the contact point (so the nozzle's side meets it)
   double wall_gap = 0.003;  ///< m: the part has reached the wall when its bounds are this close to it
   double stall_time = 3;    ///< s without the part moving 1 mm: the push gives up (jammed)
