@@ -64,6 +64,7 @@ void setTrackerField(tracker::TrackerConfig& c, const std::string& key, double v
                                               {"icp.max_correspondence_distance", &c.icp.max_correspondence_distance},
                                               {"icp.kernel_scale", &c.icp.kernel_scale},
                                               {"icp.motion_prior", &c.icp.motion_prior},
+                                              {"icp.weak_direction", &c.icp.weak_direction},
                                               {"icp.max_step_rotation", &c.icp.max_step_rotation}};
   if (key == "icp.max_iterations") {
     c.icp.max_iterations = static_cast<int>(v);

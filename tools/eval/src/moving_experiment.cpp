@@ -1,11 +1,13 @@
 // Table II on the simulator: the nozzle pushes a part through the powder from a seeded contact
 // point until it reaches the box edge (sim/push.hpp, rigid-body physics), from an initial
 // visibility of 40 to 60 %; a trial succeeds if the final error is within 15 deg and 15 mm.
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
 
 #include "depowder/eval/experiment.hpp"
+#include "depowder/sim/physics.hpp"
 #include "depowder/sim/push.hpp"
 #include "depowder/tracker/part_tracker.hpp"
 #include "experiment_util.hpp"
@@ -35,12 +37,17 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       // (azimuth, a height above the powder, a sideways offset that makes the push turn it).
       const double yaw = 2 * M_PI * unit(rng);
       const double visibility = o.min_visibility + (o.max_visibility - o.min_visibility) * unit(rng);
-      const double lo = std::min(0.95, 1.0 - visibility + o.contact_above);
-      const double hi = std::min(0.95, lo + o.contact_band);
       const Pose T0 = placePart(part.mesh, yaw, {0.0, 0.0}, o.bottom_z);
       sim::World world(cell.sim, cell.box, {{part.name, part.mesh, T0, 1000}}, cell.cameras, seed);
       world.digToVisibility(0, visibility);
-      const double size = bounds(transformed(part.mesh, T0)).sizes().head<2>().norm();
+      const Eigen::AlignedBox3d box0 = bounds(transformed(part.mesh, T0));
+      const double size = box0.sizes().head<2>().norm();
+      // The contact height: about the centre of mass's, so the push slides the part (pushed high, a
+      // part buried to its middle tips over the powder that holds its base). It may be a little below
+      // the powder line: the nozzle reaches into the loose powder beside the part.
+      const double com = ((T0 * world.physics()->massProperties(0).centre).z() - box0.min().z()) / box0.sizes().z();
+      const double lo = std::clamp(com - 0.5 * o.contact_band, 0.05, 0.95);
+      const double hi = std::clamp(com + 0.5 * o.contact_band, 0.05, 0.95);
       // A contact point the nozzle can reach: redrawn until the push line meets the part (thin parts).
       sim::PushSpec spec;
       bool hit = false;
@@ -114,6 +121,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       ++trials_done;
       const sim::PartTruth truth = world.partTruth(0);
       const PoseError moved = poseError(truth.T_cell_part, T0);
+      const double tilt = tiltError(truth.T_cell_part, T0);  // the part's vertical axis turned: tipped over
       for (std::size_t m = 0; m < methods.size(); ++m) {
         const PoseError e = poseError(last[m], truth.T_cell_part);
         MovingRow& row = rows[m];
@@ -124,6 +132,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         row.trial_visibility.push_back(eta0);
         row.trial_moved_cm.push_back(moved.trans_cm);
         row.trial_turned_deg.push_back(moved.rot_deg);
+        row.trial_tilt_deg.push_back(tilt);
         row.trial_outcome.push_back(sim::toString(push.outcome()));
       }
     }
@@ -156,6 +165,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   opt.set("push_speed_m_s", o.push_speed);
   opt.set("max_duration_s", o.max_duration);
   opt.set("dig_path", o.dig_path);
+  opt.set("contact_band", o.contact_band);
   opt.set("success_rot_deg", o.success_rot_deg);
   opt.set("success_trans_m", o.success_trans);
   opt.set("eta1", 0.0);
@@ -178,6 +188,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
     j.set("trial_visibility", Json::arrayOf(r.trial_visibility));
     j.set("trial_moved_cm", Json::arrayOf(r.trial_moved_cm));
     j.set("trial_turned_deg", Json::arrayOf(r.trial_turned_deg));
+    j.set("trial_tilt_deg", Json::arrayOf(r.trial_tilt_deg));
     j.set("trial_outcome", Json::arrayOf(r.trial_outcome));
     rows.push(std::move(j));
   }

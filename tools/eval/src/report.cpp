@@ -339,8 +339,9 @@ std::string movingSection(const Json& doc, const std::string& note) {
   std::map<std::pair<std::string, std::string>, const Json*> by;
   for (const Json& r : doc.at("rows").elements()) by[{r.at("part").string(), r.at("method").string()}] = &r;
   md << "Each cell: **ours** (paper). " << opt.at("trials").number()
-     << " seeded pushes per part: a contact point on the visible part (azimuth, height, sideways offset) and an "
-        "initial visibility in ["
+     << " seeded pushes per part: a contact point on the part (azimuth, a height within "
+     << fmt(50 * (opt.has("contact_band") ? opt.at("contact_band").number() : std::nan("")), 0)
+     << " % of the part's height of its centre of mass's, sideways offset) and an initial visibility in ["
      << pct(opt.at("min_visibility").number()) << ", " << pct(opt.at("max_visibility").number())
      << "]; the nozzle pushes at " << fmt(opt.at("push_speed_m_s").number() * 100, 0)
      << " cm/s until the part reaches the box wall (sim/push.hpp, rigid-body physics). Success: final error within "
@@ -384,13 +385,20 @@ std::string movingSection(const Json& doc, const std::string& note) {
     }
     md << "\n";
   }
-  md << "| (part moved cm / turned deg) |";
+  md << "| (part moved cm / turned deg / tipped pushes) |";
   for (const std::string& p : parts) {
     const auto it = by.find({p, methods.front()});
-    md << " "
-       << (it == by.end()
-               ? "-"
-               : fmt(it->second->at("moved_cm").number(), 1) + " / " + fmt(it->second->at("turned_deg").number(), 1))
+    if (it == by.end()) {
+      md << " - |";
+      continue;
+    }
+    const Json& r = *it->second;
+    int tipped = 0;  // pushes that tilted the part's vertical axis by more than 15 deg
+    if (r.has("trial_tilt_deg"))
+      for (const Json& t : r.at("trial_tilt_deg").elements()) tipped += t.number() > 15;
+    md << " " << fmt(r.at("moved_cm").number(), 1) << " / " << fmt(r.at("turned_deg").number(), 1) << " / "
+       << (r.has("trial_tilt_deg") ? std::to_string(tipped) + " of " + std::to_string(r.at("trial_tilt_deg").size())
+                                   : std::string("-"))
        << " |";
   }
   md << "\n\n";

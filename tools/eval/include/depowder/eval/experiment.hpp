@@ -108,9 +108,8 @@ struct MovingOptions {
   int trials = 5;               ///< per part: seeded contact points (the paper: 5)
   double min_visibility = 0.4;  ///< initial visibility, uniform in [min, max] (the paper: about 40 to 60 %)
   double max_visibility = 0.6;
-  double contact_above =
-      0.05;                   ///< the contact point is at least this fraction of the part's height above the powder...
-  double contact_band = 0.2;  ///< ... and at most this fraction above that (low pushes slide, high ones topple)
+  double contact_band = 0.2;          ///< the contact height is within +-half this fraction of the part's height of
+                                      ///< its centre of mass's (pushed there a part slides; pushed high it tips over)
   double max_offset_fraction = 0.25;  ///< sideways offset of the push line, up to this x the part's xy diagonal
   double push_speed = 0.02;           ///< m/s of the nozzle while pushing
   bool dig_path = true;               ///< dig the powder to the visibility's level along the push path to the wall
@@ -133,6 +132,7 @@ struct MovingRow {
   std::vector<int> trial_success;
   std::vector<double> trial_final_rot_err_deg, trial_final_trans_err_cm, trial_visibility, trial_moved_cm,
       trial_turned_deg;
+  std::vector<double> trial_tilt_deg;      ///< angle between the part's initial and final vertical axes
   std::vector<std::string> trial_outcome;  ///< how each push ended (sim::PushOutcome)
 };
 
