@@ -95,14 +95,8 @@ fi
 main_pid=${launcher_pids##* }
 stop_run() { for p in $launcher_pids; do kill -TERM "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
 wait_run() { wait "$main_pid" || true; }  # the monitor ends it when the part is done
-# The sim's fault line: its frames' utime (camera_silent) or the wall clock (controller_drop).
-sim_fault_utime() {
-  if [ "$FAULT" = camera_silent ]; then
-    sed -n 's/.*fault at t = .* (utime \([0-9]*\), wall utime [0-9]*).*/\1/p' run_*/sim.log | head -1
-  else
-    sed -n 's/.*fault at t = .* (utime [0-9]*, wall utime \([0-9]*\)).*/\1/p' run_*/sim.log | head -1
-  fi
-}
+# The wall-clock utime of the sim's fault line (its frames carry the wall clock too).
+sim_fault_utime() { sed -n 's/.*fault at t = .* wall utime \([0-9]*\)).*/\1/p' run_*/sim.log | head -1; }
 
 until_opt=""
 case $FAULT in
