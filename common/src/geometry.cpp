@@ -21,6 +21,18 @@ bool isValidPose(const Pose& pose, double tolerance) {
          std::abs(r.determinant() - 1.0) < tolerance;
 }
 
+Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - position).normalized();
+  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
+  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();  // looking straight down or up
+  x.normalize();
+  const Eigen::Vector3d y = z.cross(x);
+  Pose T = Pose::Identity();
+  T.linear() << x, y, z;
+  T.translation() = position;
+  return T;
+}
+
 Pose makePose(const Eigen::Vector3d& t, const Eigen::Quaterniond& q) {
   Pose pose = Pose::Identity();
   pose.linear() = q.normalized().toRotationMatrix();

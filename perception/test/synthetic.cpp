@@ -71,17 +71,6 @@ Scene boxScene(const Eigen::Vector3d& box_size, double powder_level, std::vector
   return s;
 }
 
-Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - position).normalized();
-  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
-  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();
-  x.normalize();
-  Pose T = Pose::Identity();
-  T.linear() << x, z.cross(x), z;
-  T.translation() = position;
-  return T;
-}
-
 PinholeCamera makeCamera(const std::string& name, int width, int height, const Pose& T_cell_camera, double fov_h_deg,
                          double fov_v_deg) {
   PinholeCamera c;

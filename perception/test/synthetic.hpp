@@ -38,9 +38,6 @@ struct Scene {
 /// `powder_level`, standing on a table 2 cm below the cell origin, with `spheres`.
 Scene boxScene(const Eigen::Vector3d& box_size, double powder_level, std::vector<Sphere> spheres);
 
-/// Camera frame x right, y down, z forward; image x axis horizontal (as the cell YAML's look_at).
-Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target);
-
 /// A pinhole camera with the L515's 70 x 55 deg field of view.
 PinholeCamera makeCamera(const std::string& name, int width, int height, const Pose& T_cell_camera,
                          double fov_h_deg = 70, double fov_v_deg = 55);

@@ -18,17 +18,6 @@ CameraModel CameraModel::fromFov(std::string name, int width, int height, double
   return c;
 }
 
-Pose cameraLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - position).normalized();
-  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
-  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();  // straight down or up
-  x.normalize();
-  Pose T = Pose::Identity();
-  T.linear() << x, z.cross(x), z;
-  T.translation() = position;
-  return T;
-}
-
 Point DepthImage::point(int u, int v) const {
   const double z = metres(u, v);
   return {(u - cx) / fx * z, (v - cy) / fy * z, z};

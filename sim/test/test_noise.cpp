@@ -52,7 +52,7 @@ Frames renderFrames(const CameraModel& cam, const std::vector<Mesh>& meshes, int
 // A camera 0.5 m above an endless floor looking at (1, 0, 0): ranges from 0.5 m to the horizon,
 // incidence from 25 to 90 deg.
 CameraModel obliqueCamera(const DepthNoise& noise) {
-  CameraModel cam = CameraModel::fromFov("T", 640, 480, 70, 55, cameraLookAt({0, 0, 0.5}, {1.0, 0, 0}));
+  CameraModel cam = CameraModel::fromFov("T", 640, 480, 70, 55, lookAt({0, 0, 0.5}, {1.0, 0, 0}));
   cam.noise = noise;
   return cam;
 }
@@ -154,7 +154,7 @@ TEST(Noise, FlyingPixelsOnlyAtDepthEdgesWithTheConfiguredRate) {
   DepthNoise noise = quiet();
   noise.flying_pixel_prob = 0.3;
   noise.flying_edge = 0.01;
-  CameraModel cam = CameraModel::fromFov("T", 640, 480, 70, 55, cameraLookAt({0.01, 0.02, 0.6}, {0.01, 0.02, 0}));
+  CameraModel cam = CameraModel::fromFov("T", 640, 480, 70, 55, lookAt({0.01, 0.02, 0.6}, {0.01, 0.02, 0}));
   cam.noise = noise;
   // A 10 cm square 8 cm above the floor: its outline is a depth edge.
   const Frames f = renderFrames(cam, {square(1, 0), square(0.05, 0.08)}, 10);
@@ -191,7 +191,7 @@ TEST(Noise, FlyingPixelsOnlyAtDepthEdgesWithTheConfiguredRate) {
 }
 
 TEST(Noise, NoiseFreeDepthIsQuantisedTruth) {
-  const CameraModel cam = CameraModel::fromFov("T", 64, 48, 70, 55, cameraLookAt({0, 0, 0.61237}, {0, 0, 0}));
+  const CameraModel cam = CameraModel::fromFov("T", 64, 48, 70, 55, lookAt({0, 0, 0.61237}, {0, 0, 0}));
   const Frames f = renderFrames(cam, {square(5, 0)}, 0);
   for (int v = 0; v < cam.height; ++v)
     for (int u = 0; u < cam.width; ++u)

@@ -46,7 +46,7 @@ Comparison compare(const DepthImage& img, const CameraModel& cam, const std::vec
 }
 
 CameraModel camera(int w, int h, const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  return CameraModel::fromFov("T", w, h, 70, 55, cameraLookAt(position, target));
+  return CameraModel::fromFov("T", w, h, 70, 55, lookAt(position, target));
 }
 
 }  // namespace

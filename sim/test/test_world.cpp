@@ -31,7 +31,7 @@ SimConfig quietConfig() {
 }
 
 CameraModel sideCamera(int w = 320, int h = 240) {
-  return CameraModel::fromFov("SIDE", w, h, 70, 55, cameraLookAt({0.0, -0.30, 0.50}, {0, 0, 0.03}));
+  return CameraModel::fromFov("SIDE", w, h, 70, 55, lookAt({0.0, -0.30, 0.50}, {0, 0, 0.03}));
 }
 
 // Distance from xy to the square [-a, a]^2.
@@ -209,7 +209,7 @@ TEST(World, MovingAPartMovesItsFloorAndBand) {
 
 TEST(World, SeededRunsAreBitIdentical) {
   const std::vector<CameraModel> cams{
-      sideCamera(), CameraModel::fromFov("TOP", 320, 240, 70, 55, cameraLookAt({0.1, 0.4, 0.5}, {0, 0, 0}))};
+      sideCamera(), CameraModel::fromFov("TOP", 320, 240, 70, 55, lookAt({0.1, 0.4, 0.5}, {0, 0, 0}))};
   Orbit orbit;
   orbit.radii = {0.06, 0.05};
   orbit.height = 0.075;

@@ -10,19 +10,6 @@ namespace depowder::tracker::scene {
 
 namespace {
 
-// The same construction as depowder::node::lookAt (kept here: the library has no node dependency).
-Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - position).normalized();
-  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
-  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();
-  x.normalize();
-  const Eigen::Vector3d y = z.cross(x);
-  Pose T = Pose::Identity();
-  T.linear() << x, y, z;
-  T.translation() = position;
-  return T;
-}
-
 struct Intrinsics {
   double fx, fy, cx, cy;
   explicit Intrinsics(const Camera& c)

@@ -21,6 +21,9 @@ double translationDistance(const Pose& a, const Pose& b);
 /// and the last row is (0 0 0 1).
 bool isValidPose(const Pose& pose, double tolerance = 1e-6);
 
+/// Camera pose at `position` looking at `target` (z forward, image x horizontal, y down).
+Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target);
+
 /// Pose from translation (m) and quaternion (w, x, y, z); the quaternion is normalised.
 Pose makePose(const Eigen::Vector3d& t, const Eigen::Quaterniond& q);
 

@@ -11,18 +11,6 @@ const std::vector<std::string> kModuleSections = {"perception", "tracker", "prog
 double CameraConfig::fx() const { return 0.5 * width / std::tan(0.5 * fov_h_deg * M_PI / 180.0); }
 double CameraConfig::fy() const { return 0.5 * height / std::tan(0.5 * fov_v_deg * M_PI / 180.0); }
 
-Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - position).normalized();
-  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
-  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();  // looking straight down or up
-  x.normalize();
-  const Eigen::Vector3d y = z.cross(x);
-  Pose T = Pose::Identity();
-  T.linear() << x, y, z;
-  T.translation() = position;
-  return T;
-}
-
 namespace {
 
 CameraConfig readCamera(const YamlReader& r) {

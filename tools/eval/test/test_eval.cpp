@@ -23,7 +23,7 @@ EvalCell testCell() {
   EvalCell cell;
   for (const double y : {-0.45, 0.45})
     cell.cameras.push_back(sim::CameraModel::fromFov(y < 0 ? "LEFT" : "RIGHT", 320, 240, 70, 55,
-                                                     sim::cameraLookAt({0.0, y, 0.55}, {0.0, 0.0, 0.05})));
+                                                     lookAt({0.0, y, 0.55}, {0.0, 0.0, 0.05})));
   return cell;
 }
 

@@ -40,9 +40,6 @@ struct CameraModel {
                              const Pose& T_cell_camera);
 };
 
-/// Camera pose at `position` looking at `target`, image x horizontal (the convention of node::lookAt).
-Pose cameraLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target);
-
 /// One rendered frame. Depth is along the optical axis (z), like depth_image_t.
 struct DepthImage {
   std::string camera;

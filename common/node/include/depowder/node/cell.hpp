@@ -73,8 +73,7 @@ extern const std::vector<std::string> kModuleSections;
 CellConfig loadCell(const std::string& path);
 CellConfig loadCellFromString(const std::string& text, const std::string& file = "<string>");
 
-/// Pose for a camera at `position` looking at `target`, image x axis horizontal.
-Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target);
+using depowder::lookAt;  ///< camera pose at a position looking at a target (geometry.hpp)
 
 /// Default config file: $DEPOWDER_CELL, else config/cell.yaml of the source tree.
 std::string defaultCellPath();
