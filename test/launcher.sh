@@ -4,6 +4,7 @@
 set -eu
 BIN=$1
 rm -rf run1 run2
+NAP=300.$$  # the sleepers' argument: no other process on the machine has it
 pass=0
 fail=0
 check() {  # check "what" command...
@@ -16,7 +17,7 @@ hosts:
   - name: t
     processes:
       - {name: crasher, command: sh, args: [-c, "echo crash-${TAG}; exit 3"], restart: on-failure, max_restarts: 2}
-      - {name: sleeper, command: sleep, args: ["300"], restart: never}
+      - {name: sleeper, command: sleep, args: ["${NAP}"], restart: never}
       - name: watcher  # lets the crasher run out its restarts (0.5 + 1 s back-off) first
         command: sh
         args: [-c, 'sleep 3 && exec "$0" --wait-for depowder-launch --timeout 20', "${BIN_DIR}/depowder-status"]
@@ -24,7 +25,7 @@ hosts:
         start_delay_s: 0
 YAML
 set +e
-"$BIN/depowder-launch" deploy.yaml --run-dir run1 --set TAG=x > launch1.out 2>&1
+"$BIN/depowder-launch" deploy.yaml --run-dir run1 --set TAG=x --set NAP=$NAP > launch1.out 2>&1
 code=$?
 set -e
 cat launch1.out
@@ -32,22 +33,22 @@ check "ends_run process's exit code (heard the launcher's heartbeat over LCM)" [
 check "crasher ran 1 + 2 restarts" [ "$(grep -c '^crash-x$' run1/crasher.log)" -eq 3 ]
 check "crasher gave up" grep -q "gave up after 2 restarts" run1/crasher.log
 check "output is prefixed" grep -q "^\[crasher\] crash-x" launch1.out
-check "sleeper was stopped" sh -c '! pgrep -f "^sleep 300$" > /dev/null'
+check "sleeper was stopped" sh -c "! pgrep -f '^sleep $NAP\$' > /dev/null"
 
 cat > deploy2.yaml <<'YAML'
 hosts:
   - name: t
     processes:
-      - {name: sleeper, command: sleep, args: ["300"]}
+      - {name: sleeper, command: sleep, args: ["${NAP}"]}
 YAML
-"$BIN/depowder-launch" deploy2.yaml --run-dir run2 > launch2.out 2>&1 &
+"$BIN/depowder-launch" deploy2.yaml --run-dir run2 --set NAP=$NAP > launch2.out 2>&1 &
 launcher=$!
 sleep 1
 kill -TERM $launcher
 start=$(date +%s)
 wait $launcher || true
 check "SIGTERM stops within 6 s" [ $(( $(date +%s) - start )) -le 6 ]
-check "no sleeper left after SIGTERM" sh -c '! pgrep -f "^sleep 300$" > /dev/null'
+check "no sleeper left after SIGTERM" sh -c "! pgrep -f '^sleep $NAP\$' > /dev/null"
 
 cat > bad.yaml <<'YAML'
 hosts:
