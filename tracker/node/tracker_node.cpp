@@ -63,10 +63,11 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
 
 TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options,
                          const std::map<std::string, SavedPose>& resume)
-    : options_(options), last_poses_(resume) {
+    : options_(options) {
   std::vector<PartTracker> parts;
   for (const node::PartConfig& p : cell.parts) {
-    const auto saved = resume.find(p.name);
+    const auto saved = resume.find(p.name);  // a saved part the cell no longer has is dropped
+    if (saved != resume.end()) last_poses_[p.name] = saved->second;
     const Pose& T_init = saved != resume.end() ? saved->second.T_cell_part : p.T_cell_part_init;
     parts.emplace_back(p.name, loadMesh(p.mesh, p.mesh_scale), T_init, p.xi, options_.tracker);
   }
