@@ -25,6 +25,7 @@
 #include "depowder/estop_t.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/launcher_status_t.hpp"
+#include "depowder/node/bus.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/nozzle_plan_t.hpp"
@@ -40,11 +41,6 @@ using namespace depowder;
 
 namespace {
 
-std::int64_t nowUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 int usage() {
   std::cerr << "usage: fault_probe wait tracking|vacuum [--timeout S]\n"
                "       fault_probe garbage [--seconds S] [--rate HZ] [--seed N]\n"
@@ -55,40 +51,30 @@ int usage() {
 
 // ---------------------------------------------------------------- wait
 int waitFor(const std::string& cond, double timeout_s) {
-  lcm::LCM lcm;
-  if (!lcm.good()) return std::cerr << "fault_probe: LCM is not available\n", 1;
+  node::Bus bus;
   std::int64_t met = 0;
-  struct Handler {
-    std::string cond;
-    std::int64_t* met;
-    void pose(const lcm::ReceiveBuffer*, const std::string&, const part_pose_t* m) {
-      if (cond == "tracking" && m->status == part_pose_t::TRACKING) *met = m->utime;
-    }
-    void state(const lcm::ReceiveBuffer*, const std::string&, const robot_state_t* m) {
-      if (cond == "vacuum" && m->mode == robot_state_t::MODE_FOLLOWING && m->tool == waypoint_t::TOOL_VACUUM)
-        *met = m->utime;
-    }
-  } h{cond, &met};
-  lcm.subscribe("PART_POSE", &Handler::pose, &h);
-  lcm.subscribe("ROBOT_STATE", &Handler::state, &h);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!met && std::chrono::steady_clock::now() < deadline) lcm.handleTimeout(100);
-  if (!met) return std::cerr << "fault_probe: no '" << cond << "' within " << timeout_s << " s\n", 1;
+  bus.subscribe<part_pose_t>("PART_POSE", [&](const part_pose_t& m, const std::string&) {
+    if (cond == "tracking" && m.status == part_pose_t::TRACKING) met = m.utime;
+  });
+  bus.subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t& m, const std::string&) {
+    if (cond == "vacuum" && m.mode == robot_state_t::MODE_FOLLOWING && m.tool == waypoint_t::TOOL_VACUUM) met = m.utime;
+  });
+  if (!bus.spinUntil([&] { return met != 0; }, timeout_s))
+    return std::cerr << "fault_probe: no '" << cond << "' within " << timeout_s << " s\n", 1;
   std::cout << met << std::endl;
   return 0;
 }
 
 // ---------------------------------------------------------------- garbage
 int garbage(double seconds, double rate_hz, unsigned seed) {
-  lcm::LCM lcm;
-  if (!lcm.good()) return std::cerr << "fault_probe: LCM is not available\n", 1;
+  node::Bus bus;
   const std::vector<std::string> channels = {"DEPTH_LEFT", "DEPTH_RIGHT", "POINTS",      "PART_POSE",
                                              "PROGRESS",   "NOZZLE_PLAN", "ROBOT_STATE", "ESTOP",
                                              "HEARTBEAT",  "LAUNCHER",    "SIM_TRUTH"};
   std::mt19937 rng(seed);
   // A well-formed message of another type: decodes nowhere but on its own channel.
   heartbeat_t wrong;
-  wrong.utime = nowUtime();
+  wrong.utime = node::nowUtime();
   wrong.process = "fault_probe";
   std::vector<std::uint8_t> wrong_bytes(wrong.getEncodedSize());
   wrong.encode(wrong_bytes.data(), 0, static_cast<int>(wrong_bytes.size()));
@@ -119,13 +105,13 @@ int garbage(double seconds, double rate_hz, unsigned seed) {
           for (std::size_t i = 8; i < msg.size(); ++i) msg[i] = static_cast<std::uint8_t>(rng());
           break;
       }
-      lcm.publish(ch, msg.data(), static_cast<unsigned>(msg.size()));
+      bus.publishRaw(ch, msg.data(), static_cast<int>(msg.size()));
       ++sent;
       bytes += static_cast<std::int64_t>(msg.size());
     }
     std::vector<std::uint8_t> big(1 << 20);
     for (auto& b : big) b = static_cast<std::uint8_t>(rng());
-    lcm.publish(channels[k % channels.size()], big.data(), static_cast<unsigned>(big.size()));
+    bus.publishRaw(channels[k % channels.size()], big.data(), static_cast<int>(big.size()));
     ++sent;
     bytes += static_cast<std::int64_t>(big.size());
     next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
@@ -195,10 +181,6 @@ Pose poseOf(const pose_t& m) {
   return *p;
 }
 
-double rotationDistanceDeg(const Pose& a, const Pose& b) {
-  return rotationAngle(a.linear(), b.linear()) * 180.0 / M_PI;
-}
-
 double maxAbsDiff(const double* a, const double* b) {
   double m = 0;
   for (int j = 0; j < 6; ++j) m = std::max(m, std::abs(a[j] - b[j]));
@@ -260,11 +242,12 @@ std::optional<std::int64_t> atRestFrom(const Log& log, std::int64_t from, std::i
   return rest;
 }
 
+/// The most restarts the launchers reported for `process` ("": for any process).
 int restartsOf(const Log& log, const std::string& process) {
   int restarts = 0;
   for (const launcher_status_t& l : log.launchers)
     for (const process_status_t& p : l.processes)
-      if (p.name == process) restarts = std::max(restarts, static_cast<int>(p.restarts));
+      if (process.empty() || p.name == process) restarts = std::max(restarts, static_cast<int>(p.restarts));
   return restarts;
 }
 
@@ -407,9 +390,7 @@ int report(const std::string& fault, const std::string& log_path, const std::str
     for (const char* p :
          {"depowder-tracker", "depowder-progress", "depowder-planner", "depowder-driver", "depowder-camera"})
       c.check(errors[p] > 0, std::string(p) + " counted the garbage in its heartbeat");
-    int restarts = 0;
-    for (const launcher_status_t& l : log.launchers)
-      for (const process_status_t& p : l.processes) restarts = std::max(restarts, static_cast<int>(p.restarts));
+    const int restarts = restartsOf(log, "");
     c.measured("restarts of any process", restarts, "");
     c.check(restarts == 0, "no process died");
     c.measured("undecodable messages recorded by the logger", static_cast<double>(log.undecodable), "");

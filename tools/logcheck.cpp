@@ -3,12 +3,11 @@
 // golden log was replayed into them) and either writes them as the expected output, or
 // compares them frame by frame with an expected output and with the simulator's truth
 // (SIM_TRUTH in the golden log), failing beyond the stated tolerances.
-#include <lcm/lcm-cpp.hpp>
-
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <sstream>
 
@@ -24,7 +23,7 @@ namespace {
 struct Row {  // one part in one frame
   Pose T = Pose::Identity();
   int status = -1;
-  double eta = NAN;       // progress process's filtered eta
+  double eta = NAN;  // progress process's filtered eta
   int phase = -1;
 };
 using Frames = std::map<std::pair<std::int64_t, std::string>, Row>;  // (utime, part)
@@ -146,16 +145,26 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage("missing value after " + a);
     const std::string v = argv[++i];
-    if (a == "--truth") truth_file = v;
-    else if (a == "--prefix") prefix = v;
-    else if (a == "--tol-trans") tol_trans = std::stod(v);
-    else if (a == "--tol-rot-deg") tol_rot = std::stod(v);
-    else if (a == "--tol-eta") tol_eta = std::stod(v);
-    else if (a == "--truth-trans") truth_trans = std::stod(v);
-    else if (a == "--truth-rot-deg") truth_rot = std::stod(v);
-    else if (a == "--truth-eta") truth_eta = std::stod(v);
-    else if (a == "--min-coverage") min_coverage = std::stod(v);
-    else return usage("unknown option " + a);
+    if (a == "--truth")
+      truth_file = v;
+    else if (a == "--prefix")
+      prefix = v;
+    else if (a == "--tol-trans")
+      tol_trans = std::stod(v);
+    else if (a == "--tol-rot-deg")
+      tol_rot = std::stod(v);
+    else if (a == "--tol-eta")
+      tol_eta = std::stod(v);
+    else if (a == "--truth-trans")
+      truth_trans = std::stod(v);
+    else if (a == "--truth-rot-deg")
+      truth_rot = std::stod(v);
+    else if (a == "--truth-eta")
+      truth_eta = std::stod(v);
+    else if (a == "--min-coverage")
+      min_coverage = std::stod(v);
+    else
+      return usage("unknown option " + a);
   }
   try {
     const Frames got = readOutputs(output, prefix);
@@ -174,7 +183,7 @@ int main(int argc, char** argv) {
       if (it == got.end()) continue;
       ++matched;
       const Row& g = it->second;
-      const double dt = translationDistance(g.T, w.T), dr = rotationAngle(g.T.linear(), w.T.linear()) * 180 / M_PI;
+      const double dt = translationDistance(g.T, w.T), dr = rotationDistanceDeg(g.T, w.T);
       const double deta = std::isnan(w.eta) || std::isnan(g.eta) ? 0 : std::abs(g.eta - w.eta);
       worst_t = std::max(worst_t, dt), worst_r = std::max(worst_r, dr), worst_eta = std::max(worst_eta, deta);
       if (dt > tol_trans || dr > tol_rot || deta > tol_eta || g.status != w.status) {
@@ -185,7 +194,7 @@ int main(int argc, char** argv) {
       const auto* t = truth.at(key.first, key.second);
       if (t && g.status == part_pose_t::TRACKING) {
         ++truth_frames;
-        const double tt = translationDistance(g.T, t->first), tr = rotationAngle(g.T.linear(), t->first.linear()) * 180 / M_PI;
+        const double tt = translationDistance(g.T, t->first), tr = rotationDistanceDeg(g.T, t->first);
         const double te = std::isnan(g.eta) ? 0 : std::abs(g.eta - t->second);
         worst_truth_t = std::max(worst_truth_t, tt), worst_truth_r = std::max(worst_truth_r, tr);
         worst_truth_eta = std::max(worst_truth_eta, te);

@@ -207,7 +207,7 @@ int main(int argc, char** argv) {
       if (p.has_pose && p.has_truth) {
         const auto est = node::fromMsg(p.pose.T_cell_part), tru = node::fromMsg(p.truth.T_cell_part);
         if (est && tru) {
-          rot = rotationAngle(est->linear(), tru->linear()) * 180 / M_PI;
+          rot = rotationDistanceDeg(*est, *tru);
           trans = translationDistance(*est, *tru) * 100;
         }
       }

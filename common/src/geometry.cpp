@@ -10,6 +10,10 @@ double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return std::acos(std::clamp(c, -1.0, 1.0));
 }
 
+double rotationDistanceDeg(const Pose& a, const Pose& b) {
+  return rotationAngle(a.linear(), b.linear()) * 180.0 / M_PI;
+}
+
 double translationDistance(const Pose& a, const Pose& b) { return (a.translation() - b.translation()).norm(); }
 
 bool isValidPose(const Pose& pose, double tolerance) {

@@ -14,6 +14,9 @@ using Cloud = std::vector<Point>;
 /// Angle of the relative rotation a^T b, radians in [0, pi].
 double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 
+/// Angle of the relative rotation of two poses, degrees in [0, 180].
+double rotationDistanceDeg(const Pose& a, const Pose& b);
+
 /// Translation distance |a.t - b.t|, metres.
 double translationDistance(const Pose& a, const Pose& b);
 
