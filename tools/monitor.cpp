@@ -131,15 +131,31 @@ int main(int argc, char** argv) {
       if (m.phase == progress_t::PHASE_DONE && p.done_since == 0) p.done_since = node::nowUtime();
       if (m.phase != progress_t::PHASE_DONE) p.done_since = 0;
     });
+    nozzle_plan_t plan{};  // the latest plan, named when a contact begins
+    const auto start = std::chrono::steady_clock::now();
     bus.subscribe<sim_truth_t>("SIM_TRUTH", [&](const sim_truth_t& m, const std::string&) {
       truth = m;
       has_truth = true;
       for (const auto& t : m.parts) {
-        parts[t.part].truth = t;
-        parts[t.part].has_truth = true;
+        PartView& p = parts[t.part];
+        if (t.nozzle_contact && !(p.has_truth && p.truth.nozzle_contact)) {
+          // A contact begins: say when, and what the cell believed then, so it can be traced.
+          const auto est = node::fromMsg(p.pose.T_cell_part), tru = node::fromMsg(t.T_cell_part);
+          const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+          std::printf(
+              "\n[%6.1f s] CONTACT with %s: plan %lld (%s), robot %s, tracked pose %s off by %.1f deg %.1f mm\n", s,
+              t.part.c_str(), static_cast<long long>(plan.plan_id), plan.reason.c_str(), robot.mode_reason.c_str(),
+              p.has_pose ? trackName(p.pose.status) : "none",
+              p.has_pose && est && tru ? rotationDistanceDeg(*est, *tru) : NAN,
+              p.has_pose && est && tru ? translationDistance(*est, *tru) * 1000 : NAN);
+          std::fflush(stdout);
+        }
+        p.truth = t;
+        p.has_truth = true;
       }
     });
     bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) {
+      plan = m;
       ++plans;
       if (m.utime > 0) plan_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
     });
@@ -148,7 +164,6 @@ int main(int argc, char** argv) {
                                [&](const heartbeat_t& m, const std::string&) { processes[m.process] = m; });
 
     const bool tty = isatty(STDOUT_FILENO);
-    const auto start = std::chrono::steady_clock::now();
     auto last_line = start;
     bool done = false, timed_out = false;
     double elapsed = 0;
