@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 namespace depowder::robot {
 
@@ -68,7 +69,10 @@ SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std:
   SafetyVerdict v;
   char buf[160];
   const double age = static_cast<double>(now_utime - plan_utime) * 1e-6;
-  if (age > cfg.plan_max_age_s) {
+  if (plan_utime <= 0) {
+    v.stop = StopReason::PlanStale;
+    v.reason = "plan has no source frame time (utime " + std::to_string(plan_utime) + ")";
+  } else if (age > cfg.plan_max_age_s) {
     std::snprintf(buf, sizeof buf, "plan is %.3f s old (limit %.3f s)", age, cfg.plan_max_age_s);
     v.stop = StopReason::PlanStale;
     v.reason = buf;

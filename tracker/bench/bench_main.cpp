@@ -78,6 +78,7 @@ void applySet(TrackerConfig& c, const std::string& kv) {
                                         {"icp.kernel_scale", &c.icp.kernel_scale},
                                         {"icp.motion_prior", &c.icp.motion_prior},
                                         {"icp.weak_direction", &c.icp.weak_direction},
+                                        {"icp.hold_chi2", &c.icp.hold_chi2},
                                         {"progress.grid_cell", &c.progress.grid_cell},
                                         {"progress.contour_spacing", &c.progress.contour_spacing},
                                         {"progress.footprint_reuse", &c.progress.footprint_reuse},

@@ -41,6 +41,7 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   icp.read("kernel_scale", c.icp.kernel_scale, 0.0, 0.1);
   icp.read("motion_prior", c.icp.motion_prior, 0.0, 100.0);
   icp.read("weak_direction", c.icp.weak_direction, 0.0, 1.0);
+  icp.read("hold_chi2", c.icp.hold_chi2, 0.0, 1e6);
   icp.read("max_step_rotation", c.icp.max_step_rotation, 1e-4, 3.2);
   icp.read("min_correspondences", c.icp.min_correspondences, 6, 1000000);
   icp.finish();

@@ -45,6 +45,7 @@ std::string validate(const TrackerConfig& c) {
   if (!nonNegative(c.icp.kernel_scale)) return "icp.kernel_scale must be >= 0 m";
   if (!nonNegative(c.icp.motion_prior)) return "icp.motion_prior must be >= 0";
   if (!fraction(c.icp.weak_direction)) return "icp.weak_direction must be in [0, 1]";
+  if (!nonNegative(c.icp.hold_chi2)) return "icp.hold_chi2 must be >= 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
   if (c.icp.min_correspondences < 6) return "icp.min_correspondences must be >= 6";
   if (!fraction(c.status.tracking_min_inlier_ratio)) return "status.tracking_min_inlier_ratio must be in [0, 1]";

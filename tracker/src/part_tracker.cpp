@@ -180,6 +180,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     return finish(refuse(
         r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
   T_cell_part_ = reg.T_target_source;
+  r.held = reg.held;
   r.T_cell_part = T_cell_part_;
   r.status = TrackStatus::kTracking;
   if (reg.inlier_ratio < s.tracking_min_inlier_ratio) {

@@ -5,6 +5,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "format.hpp"
@@ -44,8 +45,9 @@ struct LinearSystem {
   Matrix6d H = Matrix6d::Zero();
   Vector6d g = Vector6d::Zero();
   int matches = 0;
-  double sum_w = 0;   ///< robust weights: the matches' worth
-  double sum_r2 = 0;  ///< unweighted, for the RMS
+  double sum_w = 0;    ///< robust weights: the matches' worth
+  double sum_r2 = 0;   ///< unweighted, for the RMS
+  double sum_wr2 = 0;  ///< weighted, for the noise level of the hold test
 };
 
 // Geman-McClure weight of a residual r (m) with scale s2 = scale^2; 1 without a kernel.
@@ -84,6 +86,7 @@ LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const 
     sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
     sys.g.noalias() += (w * r) * J;
     sys.sum_r2 += r * r;
+    sys.sum_wr2 += w * r * r;
     abs_r.push_back(std::abs(r));
     sys.sum_w += w;
     ++sys.matches;
@@ -140,10 +143,22 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   S << Eigen::Vector3d::Constant(1.0 / length), Eigen::Vector3d::Ones();
   const Pose guess_o = result.T_target_source;  // the guess, orthonormalised
   Pose T = result.T_target_source;
+  // The estimate's deviation from the guess, e = S^-1 log(T^-1 guess): zero at the start.
+  auto deviation = [&](const Pose& T_now) {
+    const Pose E = T_now.inverse(Eigen::Isometry) * guess_o;
+    const Eigen::AngleAxisd aa(E.linear());
+    Vector6d e;
+    e << length * aa.angle() * aa.axis(), E.translation();
+    return e;
+  };
+  Eigen::SelfAdjointEigenSolver<Matrix6d> eig;                     // of the scaled H, for the weak directions
+  double weak_sum_w = 0;                                           // the matches' worth when eig was computed
+  Vector6d weak_e = Vector6d::Zero(), weak_gs = Vector6d::Zero();  // the deviation and the scan's gradient then
   result.status = RegistrationStatus::kMaxIterations;
+  LinearSystem sys;
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
     // Associate and linearise at the current estimate.
-    const LinearSystem sys = buildLinearSystem(source, source_normals, target, T, max_distance, scale * scale, abs_r);
+    sys = buildLinearSystem(source, source_normals, target, T, max_distance, scale * scale, abs_r);
     result.iterations = iteration;
     result.weak_directions = 0;
     result.correspondences = sys.matches;
@@ -174,12 +189,12 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
     const Matrix6d Hs = S.asDiagonal() * sys.H * S.asDiagonal();
     Vector6d gs = S.asDiagonal() * sys.g;
     Matrix6d A = Hs;
-    if (config.motion_prior > 0) {
-      const Pose E = T.inverse(Eigen::Isometry) * guess_o;  // T^-1 guess: identity at the start
-      const Eigen::AngleAxisd aa(E.linear());
-      Vector6d e;
-      e << length * aa.angle() * aa.axis(), E.translation();
-      const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(Hs);
+    if (config.motion_prior > 0 || config.hold_chi2 > 0) {
+      const Vector6d e = deviation(T);
+      eig.compute(Hs);
+      weak_sum_w = sys.sum_w;
+      weak_e = e;
+      weak_gs = gs;
       const double mu = config.motion_prior * sys.sum_w;
       for (int k = 0; k < 6; ++k) {
         if (eig.eigenvalues()[k] >= config.weak_direction * sys.sum_w) continue;
@@ -210,6 +225,33 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   }
   T.linear() = orthonormalized(T.linear());
   result.T_target_source = T;
+  // The hold: along the weak directions the scan would move the estimate (the least-squares
+  // optimum there, without the prior) by no more than its noise would: the weighted squared
+  // residuals would fall by less than hold_chi2 variances (about chi-square for a part that
+  // stayed still). Then the estimate stays at the guess there: a still tube does not
+  // random-walk about its axis, and a turning one adds up until it stands out.
+  if (config.hold_chi2 > 0 && weak_sum_w > 0 && sys.sum_w > 0 && sys.sum_wr2 > 0) {
+    const double variance = sys.sum_wr2 / sys.sum_w;
+    double chi2 = 0;
+    Vector6d weak_part = Vector6d::Zero();
+    const Vector6d e = deviation(T);
+    for (int k = 0; k < 6; ++k) {
+      const double lambda = eig.eigenvalues()[k];
+      if (lambda >= config.weak_direction * weak_sum_w) continue;
+      const Vector6d v = eig.eigenvectors().col(k);
+      weak_part += v.dot(e) * v;
+      if (lambda <= 1e-9 * weak_sum_w) continue;  // unobservable: no evidence either way
+      const double optimum = v.dot(weak_e) - v.dot(weak_gs) / lambda;
+      chi2 += lambda * optimum * optimum / variance;
+    }
+    result.weak_motion_chi2 = chi2;
+    if (chi2 < config.hold_chi2 && weak_part.squaredNorm() > 0) {
+      T = guess_o * increment(S.asDiagonal() * (e - weak_part)).inverse(Eigen::Isometry);
+      T.linear() = orthonormalized(T.linear());
+      result.T_target_source = T;
+      result.held = true;
+    }
+  }
   if (result.status == RegistrationStatus::kMaxIterations)
     result.reason = "stopped after " + std::to_string(config.max_iterations) + " iterations without converging";
   return result;

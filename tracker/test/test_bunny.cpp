@@ -118,6 +118,7 @@ TEST_P(Bunny, Bun0OntoBun4FromIdentityBeatsPcl) {
   IcpConfig config;
   config.max_iterations = 100;
   config.motion_prior = 0;
+  config.hold_chi2 = 0;
   config.kernel_scale = 0.01;
   config.convergence_translation = 1e-6;
   config.convergence_rotation = 1e-5;

@@ -63,9 +63,10 @@ Sequence makeSequence(const std::string& part, double visibility, int n, double 
 class EveryPart : public ::testing::TestWithParam<std::string> {};
 
 // Dug out (100 % visible), pushed 0.5 mm and 0.25 deg a frame, from 3 mm / 2 deg off: every
-// frame is tracked and the last estimate is within 3.5 deg / 1.5 mm of the truth (measured:
-// 3.3 deg, 0.7 mm at most). What remains is yaw: the cup's and the pipe's spin are seen only
-// through the handle and the elbow, so the motion prior holds them and follows with a lag.
+// frame is tracked and the last estimate is within 5.5 deg / 2 mm of the truth (measured:
+// 4.8 deg, 1.7 mm at most, the pipe). What remains is yaw: the cup's and the pipe's spin are
+// seen only through the handle and the elbow, so the motion prior and the hold (icp.hold_chi2)
+// keep them until the turn stands out of the noise, and they follow with a lag.
 TEST_P(EveryPart, TracksFromAPerturbedStart) {
   const std::string part = GetParam();
   const Sequence s = makeSequence(part, 1.0, 10, 0.0005, 0.25, 7);
@@ -78,8 +79,8 @@ TEST_P(EveryPart, TracksFromAPerturbedStart) {
     EXPECT_TRUE(isValidPose(r.T_cell_part, 1e-9));
     EXPECT_GT(r.eta, 0.9) << part;
   }
-  EXPECT_LT(rotErrDeg(r.T_cell_part, s.truth.back()), 3.5) << part;
-  EXPECT_LT(transErrMm(r.T_cell_part, s.truth.back()), 1.5) << part;
+  EXPECT_LT(rotErrDeg(r.T_cell_part, s.truth.back()), 5.5) << part;
+  EXPECT_LT(transErrMm(r.T_cell_part, s.truth.back()), 2.0) << part;
 }
 
 // The cube constrains every direction: at 70 % visible it comes to within 1.5 deg / 2 mm
@@ -166,6 +167,34 @@ TEST(PartTracker, CuUpdatesTheTemplateOnlyWhenEq1Fires) {
   }
   EXPECT_EQ(updates, 1);  // 76 mm in all: one crossing of 50 mm
   EXPECT_EQ(tracker.templateVersion(), 2);
+}
+
+// A still part over 300 noisy frames (10 s): the cup's spin about its axis is seen only
+// through the handle. Without the hold (icp.hold_chi2 = 0) the noise turns it a little every
+// frame and the turns add up; with the default hold the weak directions stay where they are
+// unless the scan really moves them, so the estimate stays put.
+TEST(PartTracker, StillPartDoesNotWanderWithTheNoise) {
+  const Sequence s = makeSequence("cup", 0.5, 300, 0.0, 0.0, 21);
+  TrackerConfig no_hold = defaults();
+  no_hold.icp.hold_chi2 = 0;
+  ASSERT_GT(defaults().icp.hold_chi2, 0);
+  PartTracker held("cup", s.mesh, s.truth[0], 0.01, defaults());
+  PartTracker free("cup", s.mesh, s.truth[0], 0.01, no_hold);
+  double worst_held = 0, worst_free = 0;
+  int held_frames = 0;
+  for (const Cloud& frame : s.frames) {
+    const TrackResult a = held.track(frame);
+    const TrackResult b = free.track(frame);
+    ASSERT_EQ(a.status, TrackStatus::kTracking) << a.reason;
+    worst_held = std::max(worst_held, rotErrDeg(a.T_cell_part, s.truth[0]));
+    worst_free = std::max(worst_free, rotErrDeg(b.T_cell_part, s.truth[0]));
+    held_frames += a.held;
+  }
+  std::printf("still cup, 300 frames: worst rotation error %.2f deg with the hold (%d frames held), %.2f without\n",
+              worst_held, held_frames, worst_free);
+  EXPECT_LT(worst_held, 1.0);
+  EXPECT_LT(worst_held, worst_free);
+  EXPECT_GT(held_frames, 150);
 }
 
 // The methods differ only in the update policy: CU-ICP with thresholds too small to miss any

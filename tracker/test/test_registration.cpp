@@ -42,6 +42,7 @@ TEST_P(KnownMotion, RecoveredWithoutNoise) {
   IcpConfig config;
   config.max_iterations = 50;
   config.motion_prior = 0;  // a one-off registration: no prior towards the guess
+  config.hold_chi2 = 0;
   config.convergence_translation = 1e-6;
   config.convergence_rotation = 1e-5;
   const RegistrationResult r =
@@ -62,6 +63,7 @@ TEST_P(KnownMotion, RecoveredFromAnIndependentSampling) {
   IcpConfig config;
   config.max_iterations = 50;
   config.motion_prior = 0;
+  config.hold_chi2 = 0;
   config.convergence_translation = 1e-6;
   config.convergence_rotation = 1e-5;
   const Cloud target = transformed(sampleSurface(mesh_, 0.001, 2).points, T_true_);
@@ -77,6 +79,7 @@ TEST_P(KnownMotion, RecoveredFromAnIndependentSampling) {
 TEST_P(KnownMotion, RobustToOutliersAndNoise) {
   IcpConfig config;  // a one-off registration: no prior towards the guess, converged fully
   config.motion_prior = 0;
+  config.hold_chi2 = 0;
   config.max_iterations = 50;
   config.convergence_translation = 1e-5;
   config.convergence_rotation = 1e-4;

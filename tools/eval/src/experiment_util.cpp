@@ -65,6 +65,7 @@ void setTrackerField(tracker::TrackerConfig& c, const std::string& key, double v
                                               {"icp.kernel_scale", &c.icp.kernel_scale},
                                               {"icp.motion_prior", &c.icp.motion_prior},
                                               {"icp.weak_direction", &c.icp.weak_direction},
+                                              {"icp.hold_chi2", &c.icp.hold_chi2},
                                               {"icp.max_step_rotation", &c.icp.max_step_rotation}};
   if (key == "icp.max_iterations") {
     c.icp.max_iterations = static_cast<int>(v);

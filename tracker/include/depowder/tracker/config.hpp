@@ -34,7 +34,10 @@ struct IcpConfig {
       0.002;                  ///< m, least Geman-McClure scale (it adapts: 3 robust sigmas of the residuals); 0 = none
   double motion_prior = 0.3;  ///< prior towards the previous pose along weak directions, in matches' worth;
                               ///< it holds what the scan cannot see (a tube's spin); 0 = none (one-off use)
-  double weak_direction = 0.2;     ///< a motion constrained by less than this fraction of the matches is weak
+  double weak_direction = 0.2;  ///< a motion constrained by less than this fraction of the matches is weak
+  double hold_chi2 = 25;        ///< along the weak directions, a move from the previous pose that lowers the weighted
+                                ///< squared residuals by less than this many variances is noise: kept at the previous
+                                ///< pose, so a still tube does not random-walk about its axis; 0 = never hold
   double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
   int min_correspondences = 12;    ///< fewer: the fit is refused (6 unknowns; keep well above)
 };

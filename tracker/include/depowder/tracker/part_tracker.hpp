@@ -42,6 +42,7 @@ struct TrackResult {
   double inlier_ratio = 0;              ///< matched template points / template points used by ICP
   int iterations = 0;                   ///< ICP iterations this frame
   bool template_updated = false;        ///< Alg. 2 ran this frame
+  bool held = false;                    ///< ICP's weak directions stayed at the last pose (icp.hold_chi2)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
   std::size_t scan_points = 0;          ///< scan points in the crop around the part

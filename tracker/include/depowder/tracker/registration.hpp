@@ -29,6 +29,8 @@ struct RegistrationResult {
   double inlier_ratio = 0;                  ///< correspondences / source points
   int weak_directions = 0;                  ///< of 6, held by the motion prior in the last round
   double rms = 0;                           ///< m, RMS point-to-plane residual of the last round's matches
+  double weak_motion_chi2 = 0;              ///< the move along the weak directions over the fit's noise (see hold_chi2)
+  bool held = false;                        ///< the weak directions were kept at the guess (config.hold_chi2)
   bool ok() const { return status == RegistrationStatus::kConverged || status == RegistrationStatus::kMaxIterations; }
 };
 
