@@ -65,34 +65,7 @@ void applySet(TrackerConfig& c, const std::string& kv) {
   if (eq == std::string::npos) throw std::invalid_argument("--set needs key=value, got " + kv);
   const std::string key = kv.substr(0, eq);
   const double v = std::stod(kv.substr(eq + 1));
-  std::map<std::string, double*> fields{{"delta1_deg", &c.delta1_deg},
-                                        {"delta2", &c.delta2},
-                                        {"delta3", &c.delta3},
-                                        {"eta1", &c.eta1},
-                                        {"cad_spacing", &c.cad_spacing},
-                                        {"icp_leaf", &c.icp_leaf},
-                                        {"crop_margin", &c.crop_margin},
-                                        {"icp.max_correspondence_distance", &c.icp.max_correspondence_distance},
-                                        {"icp.convergence_translation", &c.icp.convergence_translation},
-                                        {"icp.convergence_rotation", &c.icp.convergence_rotation},
-                                        {"icp.kernel_scale", &c.icp.kernel_scale},
-                                        {"icp.motion_prior", &c.icp.motion_prior},
-                                        {"icp.weak_direction", &c.icp.weak_direction},
-                                        {"icp.hold_chi2", &c.icp.hold_chi2},
-                                        {"progress.grid_cell", &c.progress.grid_cell},
-                                        {"progress.contour_spacing", &c.progress.contour_spacing},
-                                        {"progress.footprint_reuse", &c.progress.footprint_reuse},
-                                        {"icp.max_step_rotation", &c.icp.max_step_rotation}};
-  if (key == "icp.max_iterations") {
-    c.icp.max_iterations = static_cast<int>(v);
-  } else if (fields.count(key)) {
-    *fields[key] = v;
-  } else {
-    std::string known = "icp.max_iterations";
-    for (const auto& f : fields) known += ", " + f.first;
-    throw std::invalid_argument("--set: unknown key " + key + " (known: " + known + ")");
-  }
-  if (const std::string why = validate(c); !why.empty()) throw std::invalid_argument("--set " + kv + ": " + why);
+  setField(c, key, v);
 }
 
 const char* kUsage =

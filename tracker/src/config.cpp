@@ -1,6 +1,8 @@
 #include "depowder/tracker/config.hpp"
 
 #include <cmath>
+#include <map>
+#include <stdexcept>
 
 namespace depowder::tracker {
 
@@ -56,6 +58,37 @@ std::string validate(const TrackerConfig& c) {
   if (!positive(c.status.lost_max_rms) || c.status.lost_max_rms < c.status.tracking_max_rms)
     return "status.lost_max_rms must be >= status.tracking_max_rms";
   return "";
+}
+
+void setField(TrackerConfig& c, const std::string& key, double value) {
+  const std::map<std::string, double*> fields{{"delta1_deg", &c.delta1_deg},
+                                              {"delta2", &c.delta2},
+                                              {"delta3", &c.delta3},
+                                              {"eta1", &c.eta1},
+                                              {"cad_spacing", &c.cad_spacing},
+                                              {"icp_leaf", &c.icp_leaf},
+                                              {"crop_margin", &c.crop_margin},
+                                              {"icp.max_correspondence_distance", &c.icp.max_correspondence_distance},
+                                              {"icp.convergence_translation", &c.icp.convergence_translation},
+                                              {"icp.convergence_rotation", &c.icp.convergence_rotation},
+                                              {"icp.kernel_scale", &c.icp.kernel_scale},
+                                              {"icp.motion_prior", &c.icp.motion_prior},
+                                              {"icp.weak_direction", &c.icp.weak_direction},
+                                              {"icp.hold_chi2", &c.icp.hold_chi2},
+                                              {"icp.max_step_rotation", &c.icp.max_step_rotation},
+                                              {"progress.grid_cell", &c.progress.grid_cell},
+                                              {"progress.contour_spacing", &c.progress.contour_spacing},
+                                              {"progress.footprint_reuse", &c.progress.footprint_reuse}};
+  if (key == "icp.max_iterations") {
+    c.icp.max_iterations = static_cast<int>(value);
+  } else if (const auto it = fields.find(key); it != fields.end()) {
+    *it->second = value;
+  } else {
+    std::string known = "icp.max_iterations";
+    for (const auto& f : fields) known += ", " + f.first;
+    throw std::invalid_argument("unknown tracker key '" + key + "' (known: " + known + ")");
+  }
+  if (const std::string why = validate(c); !why.empty()) throw std::invalid_argument("tracker " + key + ": " + why);
 }
 
 }  // namespace depowder::tracker

@@ -153,7 +153,7 @@ Args parse(int argc, char** argv) {
       const std::string key = v.substr(0, eq);
       const double value = number("--set " + key, v.substr(eq + 1));
       tracker::TrackerConfig probe = baseTrackerConfig();
-      setTrackerField(probe, key, value);  // rejects an unknown key or a bad value now
+      tracker::setField(probe, key, value);  // rejects an unknown key or a bad value now
       a.sets.emplace_back(key, value);
     } else if (f == "--cell") {
       a.cell = v;
@@ -324,7 +324,7 @@ int run(const Args& a) {
     return 0;
   }
   EvalCell cell = loadEvalCell(a.cell);
-  for (const auto& [key, value] : a.sets) setTrackerField(cell.tracker, key, value);
+  for (const auto& [key, value] : a.sets) tracker::setField(cell.tracker, key, value);
   const std::vector<EvalPart> parts = partsOf(a);
   bool interrupted = false;
   if (a.command == "static") {

@@ -53,33 +53,6 @@ tracker::TrackerConfig baseTrackerConfig() {
   return c;
 }
 
-void setTrackerField(tracker::TrackerConfig& c, const std::string& key, double v) {
-  const std::map<std::string, double*> fields{{"delta1_deg", &c.delta1_deg},
-                                              {"delta2", &c.delta2},
-                                              {"delta3", &c.delta3},
-                                              {"eta1", &c.eta1},
-                                              {"cad_spacing", &c.cad_spacing},
-                                              {"icp_leaf", &c.icp_leaf},
-                                              {"crop_margin", &c.crop_margin},
-                                              {"icp.max_correspondence_distance", &c.icp.max_correspondence_distance},
-                                              {"icp.kernel_scale", &c.icp.kernel_scale},
-                                              {"icp.motion_prior", &c.icp.motion_prior},
-                                              {"icp.weak_direction", &c.icp.weak_direction},
-                                              {"icp.hold_chi2", &c.icp.hold_chi2},
-                                              {"icp.max_step_rotation", &c.icp.max_step_rotation}};
-  if (key == "icp.max_iterations") {
-    c.icp.max_iterations = static_cast<int>(v);
-  } else if (const auto it = fields.find(key); it != fields.end()) {
-    *it->second = v;
-  } else {
-    std::string known = "icp.max_iterations";
-    for (const auto& f : fields) known += ", " + f.first;
-    throw std::invalid_argument("unknown tracker key '" + key + "' (known: " + known + ")");
-  }
-  if (const std::string why = tracker::validate(c); !why.empty())
-    throw std::invalid_argument("tracker " + key + ": " + why);
-}
-
 tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell& cell) {
   tracker::TrackerConfig c = cell.tracker;
   c.method = method;

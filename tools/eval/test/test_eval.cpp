@@ -280,10 +280,10 @@ TEST(EvalMoving, ShortPushShapeAndBounds) {
 TEST(EvalTrackerSet, KnownKeysOnlyAndValidated) {
   tracker::TrackerConfig c = baseTrackerConfig();
   EXPECT_EQ(c.eta1, 0.0);  // ICP at every visibility in the experiments
-  setTrackerField(c, "icp.motion_prior", 0.0);
+  tracker::setField(c, "icp.motion_prior", 0.0);
   EXPECT_EQ(c.icp.motion_prior, 0.0);
-  setTrackerField(c, "icp.max_iterations", 12);
+  tracker::setField(c, "icp.max_iterations", 12);
   EXPECT_EQ(c.icp.max_iterations, 12);
-  EXPECT_THROW(setTrackerField(c, "icp.teleport", 1.0), std::invalid_argument);
-  EXPECT_THROW(setTrackerField(c, "delta3", 2.0), std::invalid_argument);  // out of (0, 1]
+  EXPECT_THROW(tracker::setField(c, "icp.teleport", 1.0), std::invalid_argument);
+  EXPECT_THROW(tracker::setField(c, "delta3", 2.0), std::invalid_argument);  // out of (0, 1]
 }

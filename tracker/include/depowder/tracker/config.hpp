@@ -70,4 +70,9 @@ struct TrackerConfig {
 /// Empty if `config` is usable, otherwise what is wrong (names the field).
 std::string validate(const TrackerConfig& config);
 
+/// Sets the numeric field `key`, named as in the YAML ("delta2", "icp.motion_prior", ...), to
+/// `value` (the --set of depowder-bench and depowder-eval). Throws std::invalid_argument
+/// naming the known keys, or what validate() finds wrong with the result.
+void setField(TrackerConfig& config, const std::string& key, double value);
+
 }  // namespace depowder::tracker

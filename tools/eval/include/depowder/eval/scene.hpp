@@ -19,10 +19,6 @@ namespace depowder::eval {
 /// every visibility; the paper reports errors at 20 % too).
 tracker::TrackerConfig baseTrackerConfig();
 
-/// Sets a TrackerConfig field by its YAML-style name ("icp.motion_prior", "delta1_deg", ...);
-/// throws std::invalid_argument naming the known keys, or the field and its range if invalid.
-void setTrackerField(tracker::TrackerConfig& config, const std::string& key, double value);
-
 struct EvalCell {
   sim::BoxGeometry box;
   std::vector<sim::CameraModel> cameras;
