@@ -16,6 +16,7 @@
 #include "depowder/perception/camera_proxy.hpp"
 #include "depowder/perception/point_file.hpp"
 #include "depth_msg.hpp"
+#include "depowder/robot_state_t.hpp"
 
 using namespace depowder;
 using namespace depowder::perception;
@@ -115,6 +116,11 @@ class CameraNode {
       if (!e.ok()) drop(e);
       pending_ms_ += msSince(t0);
     });
+    // The self-filter's nozzle poses: the driver's forward kinematics of the measured joints.
+    bus_.subscribe<robot_state_t>(options_.robot_state, [this](const robot_state_t& msg, const std::string&) {
+      if (msg.mode == robot_state_t::MODE_DISCONNECTED) return;
+      if (const std::optional<Pose> T = node::fromMsg(msg.T_cell_nozzle)) proxy_.addNozzlePose(msg.utime, *T);
+    });
     std::fprintf(stderr, "depowder-camera: %s -> %s (%zu cameras in %s)\n", bus_.channel(options_.input).c_str(),
                  bus_.channel(options_.output).c_str(), options_.cell.cameras.size(), options_.cell.file.c_str());
     while (!node::shutdownRequested()) {
@@ -191,6 +197,7 @@ class CameraNode {
       last_points_ = msg.num_points;
       last_bytes_ = msg.getEncodedSize();
       last_outliers_ = static_cast<double>(cloud.outliers);
+      last_on_nozzle_ = static_cast<double>(cloud.on_nozzle);
     }
   }
 
@@ -212,6 +219,7 @@ class CameraNode {
     heartbeat_.setStat("points_out", last_points_);
     heartbeat_.setStat("bytes_out", last_bytes_);
     heartbeat_.setStat("outliers_out", last_outliers_);
+    heartbeat_.setStat("on_nozzle_out", last_on_nozzle_);
     std::string reason;
     for (const CameraHealth& h : proxy_.health(nowUtime())) {
       heartbeat_.setStat("age_s_" + h.name, h.last_seen_age);
@@ -248,7 +256,7 @@ class CameraNode {
   Window input_ms_;        ///< DEPTH utime to its arrival here (transport)
   Window latency_ms_;      ///< newest source utime to POINTS published
   std::int64_t seq_ = 0;
-  double last_points_ = 0, last_bytes_ = 0, last_outliers_ = 0;
+  double last_points_ = 0, last_bytes_ = 0, last_outliers_ = 0, last_on_nozzle_ = 0;
   std::int64_t reported_drops_ = 0;
   Clock::time_point last_drop_time_{};
 };

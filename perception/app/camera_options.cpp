@@ -22,6 +22,13 @@ void readSection(const node::YamlReader& r, CameraNodeOptions& o) {
   r.read("max_wait", p.merger.max_wait, 0.0, 5.0);
   r.read("silent_after", p.merger.silent_after, 0.01, 60.0);
   r.read("stale_after", p.merger.stale_after, 0.01, 60.0);
+  r.read("robot_state", o.robot_state);
+  const node::YamlReader sf = r.child("self_filter");
+  sf.read("radius", p.self_filter.radius, 0.0, 0.5);
+  sf.read("length", p.self_filter.length, 0.0, 2.0);
+  sf.read("margin", p.self_filter.margin, -1.0, 0.2);
+  sf.read("max_age", p.self_filter.max_age, 0.0, 1.0);
+  sf.finish();
   const node::YamlReader f = r.child("files");
   FilesConfig& files = o.files;
   f.read("dir", files.dir);

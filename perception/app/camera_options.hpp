@@ -26,6 +26,7 @@ struct CameraNodeOptions {
   PerceptionConfig perception;
   std::string input = "DEPTH_.*";  ///< LCM channel regex of the depth frames (before the prefix)
   std::string output = "POINTS";
+  std::string robot_state = "ROBOT_STATE";  ///< nozzle poses for the self-filter (before the prefix)
   double heartbeat_period = 0.5;  ///< s
   int recv_buf_size = 4 << 20;    ///< bytes of UDP receive buffer asked of LCM's udpm (depth frames are
                                   ///< 150-600 kB each); the kernel caps it at net.core.rmem_max; 0 = LCM default

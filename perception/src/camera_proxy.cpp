@@ -1,5 +1,6 @@
 #include "depowder/perception/camera_proxy.hpp"
 
+#include <algorithm>
 #include <numeric>
 
 namespace depowder::perception {
@@ -51,15 +52,45 @@ std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {
   return out;
 }
 
+void CameraProxy::addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle) {
+  if (!nozzle_poses_.empty() && utime <= nozzle_poses_.back().first) return;
+  nozzle_poses_.emplace_back(utime, T_cell_nozzle);
+  while (nozzle_poses_.front().first < utime - 1000000) nozzle_poses_.pop_front();
+}
+
+const Pose* CameraProxy::nozzleAt(std::int64_t utime) const {
+  const Pose* best = nullptr;
+  std::int64_t best_dt = static_cast<std::int64_t>(config_.self_filter.max_age * 1e6);
+  for (const auto& [t, T] : nozzle_poses_) {
+    const std::int64_t dt = t > utime ? t - utime : utime - t;
+    if (dt <= best_dt) best_dt = dt, best = &T;
+  }
+  return best;
+}
+
 CellCloud CameraProxy::finish(MergedFrame&& merged) {
   CellCloud out;
   out.utime = merged.utime;
   out.missing = std::move(merged.missing);
+  const SelfFilterConfig& sf = config_.self_filter;
+  const Pose* nozzle = sf.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
   for (CameraFrame& f : merged.sources) {
     out.sources.push_back(f.camera);
     out.source_utimes.push_back(f.utime);
     out.points_in += f.points.size();
+    if (nozzle) {
+      // The nozzle frame: tip at the origin, body along -z (the spray direction is +z).
+      const Pose T_nozzle_cell = nozzle->inverse(Eigen::Isometry);
+      const double r2 = (sf.radius + sf.margin) * (sf.radius + sf.margin);
+      const auto on_nozzle = [&](const Point& p) {
+        const Point q = T_nozzle_cell * p;
+        return q.z() < sf.margin && q.z() > -(sf.length + sf.margin) && q.head<2>().squaredNorm() < r2;
+      };
+      const std::size_t before = f.points.size();
+      f.points.erase(std::remove_if(f.points.begin(), f.points.end(), on_nozzle), f.points.end());
+      out.on_nozzle += before - f.points.size();
+    }
     grid_.add(f.points);
     if (spare_.size() < 8) spare_.push_back(std::move(f.points));  // capacity reused by the next frames
   }

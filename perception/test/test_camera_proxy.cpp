@@ -152,3 +152,49 @@ TEST(CameraProxy, IsolatedVoxelRemovalTakesFlyingPixels) {
   EXPECT_LT(far1, far0 / 3);                       // most are removed
   EXPECT_GT(total1, total0 - far0 - total0 / 50);  // and at most 2 % of the surface with them
 }
+
+// The self-filter: with the nozzle's pose known (ROBOT_STATE), the points on it are removed and
+// nothing else; a pose older than max_age, or a negative margin, filters nothing.
+TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
+  const auto rig = defaultRig(320, 240);
+  const Scene s = scene();  // the sphere stands in for the nozzle: a body over the powder
+  PerceptionConfig cfg;
+  cfg.self_filter.radius = 0.03;
+  cfg.self_filter.length = 0.2;
+  cfg.self_filter.margin = 0.005;
+  Pose T_cell_nozzle = Pose::Identity();  // tip 1 cm into the sphere's top, spraying down (+z of the nozzle = -z)
+  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T_cell_nozzle.translation() = Point(0.02, 0.01, 0.12);
+  const DepthImage left = render(s, rig[0], kT0), right = render(s, rig[1], kT0);
+  auto run = [&](const PerceptionConfig& c, std::int64_t nozzle_utime) {
+    CameraProxy proxy(c, kBox, {"LEFT", "RIGHT"});
+    proxy.addNozzlePose(nozzle_utime, T_cell_nozzle);
+    proxy.addDepth(left, rig[0], kT0);
+    proxy.addDepth(right, rig[1], kT0);
+    auto out = proxy.poll(kT0);
+    EXPECT_EQ(out.size(), 1u);
+    return out.empty() ? CellCloud{} : out[0];
+  };
+  PerceptionConfig off = cfg;
+  off.self_filter.margin = -1;
+  const CellCloud all = run(off, kT0), filtered = run(cfg, kT0 + 3000), stale = run(cfg, kT0 - 200000);
+  const Pose T_nozzle_cell = T_cell_nozzle.inverse(Eigen::Isometry);
+  const double r = cfg.self_filter.radius + cfg.self_filter.margin;
+  // Inside the grown cylinder (tip at z = 0, body along -z of the nozzle): how far in, m (< 0: outside).
+  auto depthInside = [&](const Point& p) {
+    const Point q = T_nozzle_cell * p;
+    return std::min({r - q.head<2>().norm(), cfg.self_filter.margin - q.z(), q.z() + cfg.self_filter.length + cfg.self_filter.margin});
+  };
+  int inside_before = 0;
+  for (const Point& p : all.points) inside_before += depthInside(p) > 0;
+  EXPECT_GT(inside_before, 100);  // the sphere's cap is seen
+  EXPECT_EQ(all.on_nozzle, 0u);
+  EXPECT_GT(filtered.on_nozzle, 0u);
+  for (const Point& p : filtered.points) ASSERT_LE(depthInside(p), cfg.voxel_leaf) << p.transpose();
+  // Away from the cylinder (by more than a voxel) the cloud is untouched.
+  const PointGrid kept(filtered.points, cfg.voxel_leaf);
+  for (const Point& p : all.points)
+    if (depthInside(p) < -cfg.voxel_leaf) ASSERT_TRUE(kept.nearest(p, 1e-9).found()) << p.transpose();
+  EXPECT_EQ(stale.on_nozzle, 0u);
+  EXPECT_EQ(stale.points.size(), all.points.size());
+}

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <string>
 #include <vector>
@@ -25,6 +26,7 @@ struct CellCloud {
   Cloud points;                      ///< cell frame, cropped, downsampled, outliers removed
   std::size_t points_in = 0;         ///< cropped points of all sources before downsampling
   std::size_t outliers = 0;          ///< voxels removed as isolated
+  std::size_t on_nozzle = 0;         ///< cropped points removed as the nozzle's (self-filter)
 };
 
 struct ProxyCounters {
@@ -52,6 +54,9 @@ class CameraProxy {
   /// Counts a frame that never reached the pipeline (e.g. a file that could not be read).
   void reject(const FrameError& error);
 
+  /// The nozzle's pose at `utime` (ROBOT_STATE): points on it are removed from the time steps
+  /// nearest it (config.self_filter). Poses must come in time order; an older one is ignored.
+  void addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle);
   /// Clouds ready at wall-clock `now`, oldest first.
   std::vector<CellCloud> poll(std::int64_t now);
 
@@ -64,6 +69,7 @@ class CameraProxy {
  private:
   FrameError accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime, std::int64_t arrival);
   CellCloud finish(MergedFrame&& merged);
+  const Pose* nozzleAt(std::int64_t utime) const;
 
   PerceptionConfig config_;
   Eigen::AlignedBox3d crop_;
@@ -72,6 +78,7 @@ class CameraProxy {
   FrameMerger merger_;
   VoxelGrid grid_;
   ProxyCounters counters_;
+  std::deque<std::pair<std::int64_t, Pose>> nozzle_poses_;  ///< the last second of ROBOT_STATE, oldest first
 };
 
 }  // namespace depowder::perception

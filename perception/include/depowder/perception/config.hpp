@@ -17,6 +17,18 @@ struct MergerConfig {
                                    ///< before it becomes silent)
 };
 
+/// A robot self-filter: scan points on the nozzle are removed before voxelisation. The nozzle
+/// seen by the cameras is matched to the part by ICP and to the powder by Eq. 2; with the
+/// planner placing the nozzle relative to the tracked pose, an estimate pulled towards it can
+/// run away with it. Its pose comes from ROBOT_STATE (the state nearest each time step).
+struct SelfFilterConfig {
+  double radius = 0.0125;  ///< m, the nozzle body's radius (as planner.nozzle.radius)
+  double length = 0.25;    ///< m of body above the tip (as planner.nozzle.length)
+  double margin = 0.01;    ///< m around the body: the robot state and the frame differ by up to 4 ms
+                           ///< (ROBOT_STATE at 125 Hz) plus the arm's tracking error; < 0: filter off
+  double max_age = 0.1;    ///< s: no robot state within this of a time step's utime: not filtered
+};
+
 struct PerceptionConfig {
   double crop_margin = 0.005;      ///< m added to every side of the box interior before cropping; less than the
                                    ///< wall thickness (1 cm), so the outside of the walls is cut away
@@ -26,6 +38,7 @@ struct PerceptionConfig {
                                    ///< of the flying-pixel voxels and no surface (bench_perception)
   double resolution = 0.0005;      ///< m per count of the quantised point_cloud_t on the wire
   MergerConfig merger;
+  SelfFilterConfig self_filter;
 };
 
 }  // namespace depowder::perception
