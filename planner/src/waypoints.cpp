@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 namespace depowder::planner {
 
@@ -93,8 +94,9 @@ RefinedPath refinePath(const CollisionWorld& world, const Cloud& tips, Tool tool
   const CollisionConfig& cc = config.collision;
   RefinedPath out;
   PathReport& r = out.report;
+  std::vector<Waypoint> kept;
+  kept.reserve(tips.size());
   robot::Joints prev_q = seed;
-  const Waypoint* last = nullptr;
   for (std::size_t i = 0; i < tips.size(); ++i) {
     ++r.input;
     Eigen::Vector3d dir(0, 0, 1);
@@ -136,15 +138,33 @@ RefinedPath refinePath(const CollisionWorld& world, const Cloud& tips, Tool tool
       }
       continue;
     }
-    // Can the arm run from the previous waypoint to this one? If not, start a new piece.
-    if (!last || !edgeFree(world, *last, w, config)) {
-      if (last) ++r.cuts;
-      out.pieces.emplace_back();
-    }
-    out.pieces.back().push_back(w);
-    last = &out.pieces.back().back();
+    kept.push_back(w);
     prev_q = w.q;
     ++r.kept;
+  }
+  // Can the arm run from each kept waypoint to the next? The edges are independent checks
+  // (about half of a new loop's planning time, which is in the depth -> plan latency): the
+  // second half of them runs on a second thread.
+  std::vector<char> edge_free(kept.size(), 0);
+  auto checkEdges = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t j = std::max<std::size_t>(begin, 1); j < end; ++j)
+      edge_free[j] = edgeFree(world, kept[j - 1], kept[j], config);
+  };
+  const std::size_t half = kept.size() / 2;
+  if (kept.size() >= 8) {
+    std::thread second(checkEdges, half, kept.size());
+    checkEdges(0, half);
+    second.join();
+  } else {
+    checkEdges(0, kept.size());
+  }
+  // Where an edge cannot be run, a new piece starts (joined by a transition).
+  for (std::size_t j = 0; j < kept.size(); ++j) {
+    if (j == 0 || !edge_free[j]) {
+      if (j > 0) ++r.cuts;
+      out.pieces.emplace_back();
+    }
+    out.pieces.back().push_back(kept[j]);
   }
   return out;
 }
