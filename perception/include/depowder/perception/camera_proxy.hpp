@@ -1,5 +1,5 @@
 // The camera proxy pipeline, one call per camera frame and one poll per loop:
-//   frame -> deproject / to cell -> crop -> merge cameras by utime -> voxel grid
+//   frame -> deproject / to cell -> crop -> merge cameras by utime -> self-filter (the nozzle) -> voxel grid
 //   -> isolated-voxel removal -> one cloud per time step.
 // No LCM, YAML or file IO: depowder-camera feeds it, tests and benchmarks call it.
 #pragma once
