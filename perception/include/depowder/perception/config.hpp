@@ -24,8 +24,9 @@ struct MergerConfig {
 struct SelfFilterConfig {
   double radius = 0.0125;  ///< m, the nozzle body's radius (as planner.nozzle.radius)
   double length = 0.25;    ///< m of body above the tip (as planner.nozzle.length)
-  double margin = 0.01;    ///< m around the body: the robot state and the frame differ by up to 4 ms
-                           ///< (ROBOT_STATE at 125 Hz) plus the arm's tracking error; < 0: filter off
+  double margin = 0.006;   ///< m around the body: range noise, the robot state up to 4 ms from the frame
+                           ///< (ROBOT_STATE at 125 Hz). Not more: where the part touches or falls against
+                           ///< the nozzle its own points go too (1 cm cost the toppling pipe its track); < 0: off
   double max_age = 0.1;    ///< s: no robot state within this of a time step's utime: not filtered
 };
 
