@@ -74,19 +74,19 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   out.missing = std::move(merged.missing);
   const SelfFilterConfig& sf = config_.self_filter;
   const Pose* nozzle = sf.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
+  // The nozzle frame: tip at the origin, body along -z (the spray direction is +z).
+  const Pose T_nozzle_cell = nozzle ? nozzle->inverse(Eigen::Isometry) : Pose::Identity();
+  const double r2 = (sf.radius + sf.margin) * (sf.radius + sf.margin);
+  const auto on_nozzle = [&](const Point& p) {
+    const Point q = T_nozzle_cell * p;
+    return q.z() < sf.margin && q.z() > -(sf.length + sf.margin) && q.head<2>().squaredNorm() < r2;
+  };
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
   for (CameraFrame& f : merged.sources) {
     out.sources.push_back(f.camera);
     out.source_utimes.push_back(f.utime);
     out.points_in += f.points.size();
     if (nozzle) {
-      // The nozzle frame: tip at the origin, body along -z (the spray direction is +z).
-      const Pose T_nozzle_cell = nozzle->inverse(Eigen::Isometry);
-      const double r2 = (sf.radius + sf.margin) * (sf.radius + sf.margin);
-      const auto on_nozzle = [&](const Point& p) {
-        const Point q = T_nozzle_cell * p;
-        return q.z() < sf.margin && q.z() > -(sf.length + sf.margin) && q.head<2>().squaredNorm() < r2;
-      };
       const std::size_t before = f.points.size();
       f.points.erase(std::remove_if(f.points.begin(), f.points.end(), on_nozzle), f.points.end());
       out.on_nozzle += before - f.points.size();
