@@ -44,6 +44,7 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   icp.read("hold_chi2", c.icp.hold_chi2, 0.0, 1e6);
   icp.read("max_step_rotation", c.icp.max_step_rotation, 1e-4, 3.2);
   icp.read("min_correspondences", c.icp.min_correspondences, 6, 1000000);
+  icp.read("point_weight", c.icp.point_weight, 0.0, 1.0);
   icp.finish();
   const node::YamlReader st = r.child("status");
   st.read("tracking_min_inlier_ratio", c.status.tracking_min_inlier_ratio, 0.0, 1.0);

@@ -48,6 +48,7 @@ std::string validate(const TrackerConfig& c) {
   if (!nonNegative(c.icp.motion_prior)) return "icp.motion_prior must be >= 0";
   if (!fraction(c.icp.weak_direction)) return "icp.weak_direction must be in [0, 1]";
   if (!nonNegative(c.icp.hold_chi2)) return "icp.hold_chi2 must be >= 0";
+  if (!fraction(c.icp.point_weight)) return "icp.point_weight must be in [0, 1]";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
   if (c.icp.min_correspondences < 6) return "icp.min_correspondences must be >= 6";
   if (!fraction(c.status.tracking_min_inlier_ratio)) return "status.tracking_min_inlier_ratio must be in [0, 1]";
@@ -75,6 +76,7 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"icp.motion_prior", &c.icp.motion_prior},
                                               {"icp.weak_direction", &c.icp.weak_direction},
                                               {"icp.hold_chi2", &c.icp.hold_chi2},
+                                              {"icp.point_weight", &c.icp.point_weight},
                                               {"icp.max_step_rotation", &c.icp.max_step_rotation},
                                               {"progress.grid_cell", &c.progress.grid_cell},
                                               {"progress.contour_spacing", &c.progress.contour_spacing},

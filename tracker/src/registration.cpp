@@ -64,7 +64,7 @@ double robustWeight(double r, double s2) {
 //   dr/domega = (T^-1 q) x n,  dr/dv = n;
 // the CAD normals stay fixed in the part frame and Gauss-Newton is exact for this cost.
 LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const ScanIndex& target, const Pose& T,
-                               double max_distance, double s2, std::vector<double>& abs_r) {
+                               double max_distance, double s2, double point_weight, std::vector<double>& abs_r) {
   LinearSystem sys;
   abs_r.clear();
   const Pose T_inv = T.inverse(Eigen::Isometry);
@@ -85,6 +85,22 @@ LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const 
     const double w = robustWeight(r, s2);
     sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
     sys.g.noalias() += (w * r) * J;
+    if (point_weight > 0) {
+      // The offset along the tangent plane too, point_weight of a normal residual's worth
+      // (1: point-to-point, the authors' metric).
+      const Eigen::Vector3d d = q - source[i];
+      const Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+      const Eigen::Vector3d t1 = n.cross(a).normalized();
+      const Eigen::Vector3d t2 = n.cross(t1);
+      for (const Eigen::Vector3d& t : {t1, t2}) {
+        const double rt = t.dot(d);
+        J.head<3>() = q.cross(t);
+        J.tail<3>() = t;
+        const double wt = point_weight * robustWeight(rt, s2);
+        sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, wt);
+        sys.g.noalias() += (wt * rt) * J;
+      }
+    }
     sys.sum_r2 += r * r;
     sys.sum_wr2 += w * r * r;
     abs_r.push_back(std::abs(r));
@@ -158,7 +174,7 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   LinearSystem sys;
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
     // Associate and linearise at the current estimate.
-    sys = buildLinearSystem(source, source_normals, target, T, max_distance, scale * scale, abs_r);
+    sys = buildLinearSystem(source, source_normals, target, T, max_distance, scale * scale, config.point_weight, abs_r);
     result.iterations = iteration;
     result.weak_directions = 0;
     result.correspondences = sys.matches;

@@ -40,6 +40,7 @@ struct IcpConfig {
                                 ///< pose, so a still tube does not random-walk about its axis; 0 = never hold
   double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
   int min_correspondences = 12;    ///< fewer: the fit is refused (6 unknowns; keep well above)
+  double point_weight = 0;         ///< weight of a match's offset along the tangent plane (1: point-to-point)
 };
 
 /// When a fit is believed (TrackResult::status). The same rule for all three methods.

@@ -42,7 +42,8 @@ struct RegistrationResult {
 /// config.kernel_scale). Gauss-Newton on SE(3), starting at `guess`, with a motion prior
 /// towards the guess worth config.motion_prior of the matches along the directions the matches
 /// barely constrain (below config.weak_direction of them; motion_prior 0 for a one-off
-/// registration).
+/// registration). config.point_weight > 0 adds the match's offset along the tangent plane
+/// (1: point-to-point).
 /// config.max_correspondence_distance is not read here.
 RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
                                         const Pose& guess, double max_distance, const IcpConfig& config);
