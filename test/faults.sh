@@ -51,6 +51,8 @@ link_cut)  # the controller (the emulator in the sim, host 1) on its own cable t
   grep -q "host: $("$H" linkip $T 1)" cell.yaml && grep -q "emulator_bind: 0.0.0.0" cell.yaml ;;
 esac
 
+# The deployment's priorities are config/deploy/demo.yaml's: the faults are tested as the cell
+# runs, not at the mercy of whatever else the machine (or ctest -j2) runs beside them.
 # One deployment; with three hosts: camera (sim, camera proxy), compute (the rest), robot
 # (driver, and its own logger: the robot host keeps recording while its LAN is cut).
 ttl=0; [ $hosts -gt 1 ] && ttl=1
@@ -59,23 +61,24 @@ lcm_url: "udpm://239.255.76.67:7667?ttl=$ttl"
 hosts:
   - name: camera
     processes:
-      - {name: sim, command: depowder-sim, args: [--cell, "\${CELL}"]}
-      - {name: camera, command: depowder-camera, args: [--cell, "\${CELL}"]}
+      - {name: sim, command: depowder-sim, args: [--cell, "\${CELL}"], realtime: 10}
+      - {name: camera, command: depowder-camera, args: [--cell, "\${CELL}"], realtime: 30}
   - name: compute
     processes:
-      - {name: logger, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/run.lcmlog"]}
-      - {name: tracker, command: depowder-tracker, args: [--cell, "\${CELL}", --state, "\${RUN_DIR}/tracker.state"]}
-      - {name: progress, command: depowder-progress, args: [--cell, "\${CELL}"]}
-      - {name: planner, command: depowder-planner, args: [--cell, "\${CELL}"]}
+      - {name: logger, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/run.lcmlog"], realtime: 5}
+      - {name: tracker, command: depowder-tracker, args: [--cell, "\${CELL}", --state, "\${RUN_DIR}/tracker.state"], realtime: 28}
+      - {name: progress, command: depowder-progress, args: [--cell, "\${CELL}"], realtime: 26}
+      - {name: planner, command: depowder-planner, args: [--cell, "\${CELL}"], realtime: 22}
       - name: monitor
         command: depowder-monitor
         args: [--parts, "1", --timeout, "420", --summary, "\${RUN_DIR}/summary.json"]
+        realtime: 20
         restart: never
         ends_run: true
   - name: robot
     processes:
-      - {name: robotlog, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/robot.lcmlog"]}
-      - {name: driver, command: depowder-driver, args: [--cell, "\${CELL}"], start_delay_s: 0.5}
+      - {name: robotlog, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/robot.lcmlog"], realtime: 5}
+      - {name: driver, command: depowder-driver, args: [--cell, "\${CELL}"], realtime: 20, start_delay_s: 0.5}
 YAML
 if [ $hosts -eq 1 ]; then  # every deployment host on the one test host
   sed -i -e '/^  - name: compute$/,/^    processes:$/d' -e '/^  - name: robot$/,/^    processes:$/d' -e '/robotlog/d' deploy.yaml
