@@ -19,6 +19,17 @@ using namespace depowder::tracker;
 double rotErrDeg(const Pose& a, const Pose& b) { return rotationAngle(a.linear(), b.linear()) * 180.0 / M_PI; }
 double transErrMm(const Pose& a, const Pose& b) { return translationDistance(a, b) * 1000.0; }
 
+// A one-off registration: no prior towards the guess, no hold, converged to the given steps.
+IcpConfig oneOff(int max_iterations, double convergence_translation, double convergence_rotation) {
+  IcpConfig config;
+  config.max_iterations = max_iterations;
+  config.motion_prior = 0;
+  config.hold_chi2 = 0;
+  config.convergence_translation = convergence_translation;
+  config.convergence_rotation = convergence_rotation;
+  return config;
+}
+
 class KnownMotion : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
@@ -39,12 +50,7 @@ class KnownMotion : public ::testing::TestWithParam<std::string> {
 // The sampled mesh moved by T_true, no noise: the motion must come back to 0.1 deg / 0.5 mm
 // (the tolerance).
 TEST_P(KnownMotion, RecoveredWithoutNoise) {
-  IcpConfig config;
-  config.max_iterations = 50;
-  config.motion_prior = 0;  // a one-off registration: no prior towards the guess
-  config.hold_chi2 = 0;
-  config.convergence_translation = 1e-6;
-  config.convergence_rotation = 1e-5;
+  const IcpConfig config = oneOff(50, 1e-6, 1e-5);
   const RegistrationResult r =
       registerPointToPlane(src_, src_n_, transformed(cad_.points, T_true_), guess_, 0.015, config);
   ASSERT_TRUE(r.ok()) << r.reason;
@@ -60,12 +66,7 @@ TEST_P(KnownMotion, RecoveredWithoutNoise) {
 // the propeller's 1.5-4 mm blades the nearest target point is sometimes on the other face,
 // so the tolerance is looser (measured: 0.10 deg, 0.04 mm at most).
 TEST_P(KnownMotion, RecoveredFromAnIndependentSampling) {
-  IcpConfig config;
-  config.max_iterations = 50;
-  config.motion_prior = 0;
-  config.hold_chi2 = 0;
-  config.convergence_translation = 1e-6;
-  config.convergence_rotation = 1e-5;
+  const IcpConfig config = oneOff(50, 1e-6, 1e-5);
   const Cloud target = transformed(sampleSurface(mesh_, 0.001, 2).points, T_true_);
   const RegistrationResult r = registerPointToPlane(src_, src_n_, target, guess_, 0.015, config);
   ASSERT_TRUE(r.ok()) << r.reason;
@@ -77,13 +78,8 @@ TEST_P(KnownMotion, RecoveredFromAnIndependentSampling) {
 // as across it) recovers the same motions; a target sampled independently of the template
 // leaves point-to-point a sampling offset, hence the looser bound.
 TEST_P(KnownMotion, RecoveredPointToPoint) {
-  IcpConfig config;
-  config.max_iterations = 100;
-  config.motion_prior = 0;
-  config.hold_chi2 = 0;
+  IcpConfig config = oneOff(100, 1e-6, 1e-5);
   config.point_weight = 1;
-  config.convergence_translation = 1e-6;
-  config.convergence_rotation = 1e-5;
   const RegistrationResult same =
       registerPointToPlane(src_, src_n_, transformed(src_, T_true_), guess_, 0.015, config);
   ASSERT_TRUE(same.ok()) << same.reason;
@@ -100,12 +96,7 @@ TEST_P(KnownMotion, RecoveredPointToPoint) {
 // nearest-neighbour association within 1 cm and the Geman-McClure kernel keep every part
 // within 1 deg / 1 mm from a 3.1 deg, 5.4 mm guess (measured: 0.86 deg, 0.45 mm at most).
 TEST_P(KnownMotion, RobustToOutliersAndNoise) {
-  IcpConfig config;  // a one-off registration: no prior towards the guess, converged fully
-  config.motion_prior = 0;
-  config.hold_chi2 = 0;
-  config.max_iterations = 50;
-  config.convergence_translation = 1e-5;
-  config.convergence_rotation = 1e-4;
+  const IcpConfig config = oneOff(50, 1e-5, 1e-4);
   const Pose T_true = makePoseRpy({0.003, 0.002, -0.004}, 0.02, 0.03, -0.04);
   for (const double fraction : {0.25, 0.5}) {
     Cloud target = transformed(sampleSurface(mesh_, 0.002, 7).points, T_true);
