@@ -26,6 +26,9 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   r.read("icp_leaf", c.icp_leaf, 0.0, 0.05);
   r.read("crop_margin", c.crop_margin, 0.0, 0.5);
   r.read("min_scan_points", c.min_scan_points, 1, 1000000);
+  r.read("refit_margin", c.refit_margin, 0.0, 1.0);
+  r.read("refit_min_eta", c.refit_min_eta, 0.0, 1.0);
+  r.read("refit_min_rotation_deg", c.refit_min_rotation_deg, 0.0, 180.0);
   r.read("cull_with_cameras", o.cull_with_cameras);
   r.read("threads", o.threads, 0, 256);
   r.read("template_leaf", o.template_leaf, 0.0, 0.05);
@@ -144,6 +147,7 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
   if (!cloud) {
     // Nothing to track on: every part keeps its last pose and says why.
     ++stats_.invalid_frames;
+    last_results_.clear();
     for (std::size_t i = 0; i < trackers_->size(); ++i) {
       const PartTracker& part = trackers_->part(i);
       TrackResult r;
@@ -165,6 +169,7 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
       }
     const bool partial = !seen_from.empty() && seen_from.size() < cameras_.size();
     const std::vector<TrackResult> results = partial ? trackers_->track(*cloud, seen_from) : trackers_->track(*cloud);
+    last_results_ = results;
     stats_.last_problem.clear();
     if (partial) stats_.last_problem = "POINTS from " + seen_names + " only: tracking on those cameras";
     for (std::size_t i = 0; i < results.size(); ++i) {

@@ -56,6 +56,8 @@ class TrackerNode {
     std::string last_problem;  ///< the last non-tracking reason ("part: reason"), "" if all track
   };
   const Stats& stats() const { return stats_; }
+  /// Each part's result for the last POINTS message that decoded (empty before the first).
+  const std::vector<TrackResult>& lastResults() const { return last_results_; }
   std::vector<std::string> partNames() const;
   const MultiTracker& trackers() const { return *trackers_; }
   const char* method() const { return toString(options_.tracker.method); }
@@ -70,6 +72,7 @@ class TrackerNode {
   std::vector<int> published_version_;                           ///< template version last encoded, per part
   std::vector<std::vector<std::vector<std::int16_t>>> encoded_;  ///< its quantised points
   std::deque<double> recent_ms_;
+  std::vector<TrackResult> last_results_;
   Stats stats_;
   std::map<std::string, SavedPose> last_poses_;
   std::map<std::string, Point> cameras_;  ///< name -> position (cell), for per-frame culling

@@ -38,6 +38,10 @@ std::string validate(const TrackerConfig& c) {
   if (!positive(c.cad_spacing) || c.cad_spacing > 0.05) return "cad_spacing must be in (0, 0.05] m";
   if (!nonNegative(c.icp_leaf) || c.icp_leaf > 0.05) return "icp_leaf must be in [0, 0.05] m";
   if (!nonNegative(c.crop_margin) || c.crop_margin > 1) return "crop_margin must be in [0, 1] m";
+  if (!fraction(c.refit_margin)) return "refit_margin must be in [0, 1] (0 = never refit)";
+  if (!fraction(c.refit_min_eta)) return "refit_min_eta must be in [0, 1]";
+  if (!nonNegative(c.refit_min_rotation_deg) || c.refit_min_rotation_deg > 180)
+    return "refit_min_rotation_deg must be in [0, 180] deg";
   if (c.min_scan_points < 1) return "min_scan_points must be >= 1";
   if (c.icp.max_iterations < 1) return "icp.max_iterations must be >= 1";
   if (!nonNegative(c.icp.max_correspondence_distance) || c.icp.max_correspondence_distance > 0.5)
@@ -69,6 +73,9 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"cad_spacing", &c.cad_spacing},
                                               {"icp_leaf", &c.icp_leaf},
                                               {"crop_margin", &c.crop_margin},
+                                              {"refit_margin", &c.refit_margin},
+                                              {"refit_min_eta", &c.refit_min_eta},
+                                              {"refit_min_rotation_deg", &c.refit_min_rotation_deg},
                                               {"icp.max_correspondence_distance", &c.icp.max_correspondence_distance},
                                               {"icp.convergence_translation", &c.icp.convergence_translation},
                                               {"icp.convergence_rotation", &c.icp.convergence_rotation},

@@ -49,9 +49,10 @@ PartTracker::PartTracker(std::string name, const Mesh& mesh, const Pose& T_cell_
   }
   cad_box_ = bounds(cad_.points);
   // P_cad thinned to icp_leaf for Eq. 2: the same eta to about 1 % at a third of the cost.
-  eta_estimator_ = progress::EtaEstimator(
-      gather(cad_.points, thinned(cad_.points, allIndices(cad_.points.size()), config_.icp_leaf)), xi_,
-      config_.progress);
+  const Indices sparse = thinned(cad_.points, allIndices(cad_.points.size()), config_.icp_leaf);
+  cad_sparse_points_ = gather(cad_.points, sparse);
+  cad_sparse_normals_ = gather(cad_.normals, sparse);
+  eta_estimator_ = progress::EtaEstimator(cad_sparse_points_, xi_, config_.progress);
   T_cell_part_ = T_cell_part_init_;
   last_update_ = {T_cell_part_init_, 0.0};
 }
@@ -84,6 +85,52 @@ TrackResult PartTracker::refuse(TrackResult r, std::string why) const {
   r.reason = std::move(why) + (started_ ? "; last good pose kept" : "; initial pose kept");
   r.T_cell_part = T_cell_part_;
   return r;
+}
+
+void PartTracker::placeSparse(const Pose& T_cell_part) {
+  sight_points_.resize(cad_sparse_points_.size());
+  sight_normals_.resize(cad_sparse_points_.size());
+  for (std::size_t i = 0; i < cad_sparse_points_.size(); ++i) {
+    sight_points_[i] = T_cell_part * cad_sparse_points_[i];
+    sight_normals_[i] = T_cell_part.linear() * cad_sparse_normals_[i];
+  }
+}
+
+// How well P_cad at a pose explains the scan: its samples within xi of a scan point, less twice
+// those the cameras saw through (in front of the scanned surface).
+int PartTracker::sightScore(const Pose& T_cell_part, const SightImages& images, const ScanIndex& grid) {
+  placeSparse(T_cell_part);
+  const SightCheck c = images.check(sight_points_, sight_normals_, xi_, &verdict_);
+  int near = 0;
+  for (const Point& p : sight_points_) near += grid.nearest(p, xi_).found();
+  return near - 2 * c.in_front;
+}
+
+bool PartTracker::refit(const SightImages& images, const ScanIndex& grid, double max_distance) {
+  const int tracked = sightScore(T_cell_part_, images, grid);  // fills verdict_ at the tracked pose
+  // The source: the samples the cameras should see at the tracked pose (on the scanned surface
+  // or in front of it), not those behind powder.
+  refit_points_.clear();
+  refit_normals_.clear();
+  for (std::size_t i = 0; i < verdict_.size(); ++i)
+    if (verdict_[i] == SightCheck::kSeen || verdict_[i] == SightCheck::kInFront) {
+      refit_points_.push_back(cad_sparse_points_[i]);
+      refit_normals_.push_back(cad_sparse_normals_[i]);
+    }
+  if (refit_points_.size() < static_cast<std::size_t>(config_.icp.min_correspondences)) return false;
+  IcpConfig one_off = config_.icp;
+  one_off.motion_prior = 0;
+  one_off.hold_chi2 = 0;
+  const RegistrationResult reg =
+      registerPointToPlane(refit_points_, refit_normals_, grid, T_cell_part_, max_distance, one_off);
+  if (!reg.ok() || !isValidPose(reg.T_target_source, 1e-6)) return false;
+  const int refitted = sightScore(reg.T_target_source, images, grid);
+  if (refitted <= tracked + config_.refit_margin * static_cast<double>(cad_sparse_points_.size())) return false;
+  if (rotationDistanceDeg(reg.T_target_source, T_cell_part_) < config_.refit_min_rotation_deg &&
+      translationDistance(reg.T_target_source, T_cell_part_) < xi_)
+    return false;  // a small correction is ICP's business (its prior and hold weigh it against the noise)
+  T_cell_part_ = reg.T_target_source;
+  return true;
 }
 
 TrackResult PartTracker::track(const Cloud& scan) { return track(scan, config_.viewpoints); }
@@ -191,6 +238,32 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     r.reason = "residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.tracking_max_rms * 1000, 1) + " mm";
   }
 
+  // Not in the paper: the refit (sight.hpp). The motion prior and the hold keep a still part's
+  // weakly seen motions at the last pose; after a fast motion (a fall) they can keep a wrong one,
+  // and a template derived there lacks the points that would correct it. So the whole CAD model
+  // is judged against the cameras' lines of sight, fitted once more from the points the cameras
+  // should see without the prior and the hold, and that fit replaces ICP's when it explains the
+  // scan better by refit_margin.
+  bool refitted = false;
+  if (!viewpoints.empty() && config_.refit_margin > 0 && eta_ >= config_.refit_min_eta) {
+    t0 = Clock::now();
+    Eigen::AlignedBox3d region;  // the crop's box, cell frame
+    for (int c = 0; c < 8; ++c)
+      region.extend(T_cell_part_ * cad_box_.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+    region.min().array() -= config_.crop_margin;
+    region.max().array() += config_.crop_margin;
+    const SightImages images(scan, viewpoints, region);
+    if (refit(images, grid, max_distance)) {
+      refitted = true;
+      r.refit = true;
+      r.held = false;
+      r.T_cell_part = T_cell_part_;
+    }
+    placeSparse(T_cell_part_);
+    r.sight = images.check(sight_points_, sight_normals_, xi_);
+    r.timing.sight_ms = msSince(t0);
+  }
+
   // Lines 10-11: P_cad moves with the pose; eta_i from Eq. 2 (kept from before if unavailable).
   t0 = Clock::now();
   std::string why;
@@ -202,6 +275,8 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   // (DEGRADED: the part mostly occluded, e.g. by the nozzle) does not re-derive the template, in
   // any method: Alg. 2 at a wrong pose would lock the error in.
   r.update = decideTemplateUpdate(config_.method, T_cell_part_, eta_, last_update_, thresholdsOf(config_));
+  // After a refit the template, derived at the wrong pose, is derived again (Vanilla has none).
+  if (refitted && config_.method != Method::kVanilla) r.update.update = true;
   if (r.update.update && r.status == TrackStatus::kTracking) {
     t0 = Clock::now();
     setTemplate(deriveTemplate(cad_.points, T_cell_part_, grid, xi_));  // line 13, Alg. 2

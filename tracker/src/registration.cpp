@@ -92,10 +92,10 @@ LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const 
       const Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
       const Eigen::Vector3d t1 = n.cross(a).normalized();
       const Eigen::Vector3d t2 = n.cross(t1);
-      for (const Eigen::Vector3d& t : {t1, t2}) {
-        const double rt = t.dot(d);
-        J.head<3>() = q.cross(t);
-        J.tail<3>() = t;
+      for (const Eigen::Vector3d& tangent : {t1, t2}) {
+        const double rt = tangent.dot(d);
+        J.head<3>() = q.cross(tangent);
+        J.tail<3>() = tangent;
         const double wt = point_weight * robustWeight(rt, s2);
         sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, wt);
         sys.g.noalias() += (wt * rt) * J;

@@ -63,6 +63,11 @@ struct TrackerConfig {
   int min_scan_points = 30;       ///< fewer points in the crop: frame refused, last good pose kept
   std::vector<Point> viewpoints;  ///< camera positions, cell frame, m (the node takes the cell's cameras); ICP
                                   ///< skips template points facing away from all of them. Empty: no culling
+  double refit_margin = 0.02;     ///< the refit (sight.hpp) replaces the pose when its sight score beats the tracked
+                                  ///< pose's by this fraction of P_cad's icp_leaf samples; 0 = never refit
+  double refit_min_rotation_deg = 10;  ///< deg; a refit that turns the pose less (and moves it less than xi) is not taken
+  double refit_min_eta = 0.85;    ///< the refit runs only above this progress: with more of the part under powder, a
+                                  ///< whole-model score prefers poses that lift the buried part onto the powder
   IcpConfig icp;
   StatusConfig status;
   progress::ProgressConfig progress;  ///< Eq. 2 settings for the update rule (Alg. 1, line 11)

@@ -10,6 +10,7 @@
 #include "depowder/progress/progress.hpp"
 #include "depowder/tracker/config.hpp"
 #include "depowder/tracker/registration.hpp"
+#include "depowder/tracker/sight.hpp"
 #include "depowder/tracker/template.hpp"
 #include "depowder/tracker/update_policy.hpp"
 
@@ -30,6 +31,7 @@ struct TrackTiming {
   double icp_ms = 0;       ///< Alg. 1, line 8
   double progress_ms = 0;  ///< line 11 (Eq. 2)
   double template_ms = 0;  ///< Alg. 2, when it ran
+  double sight_ms = 0;     ///< the lines-of-sight check and the refit (not in the paper)
   double total_ms = 0;
 };
 
@@ -43,10 +45,13 @@ struct TrackResult {
   int iterations = 0;                   ///< ICP iterations this frame
   bool template_updated = false;        ///< Alg. 2 ran this frame
   bool held = false;                    ///< ICP's weak directions stayed at the last pose (icp.hold_chi2)
+  bool refit = false;                   ///< the refit replaced ICP's pose (TrackerConfig::refit_margin)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
   std::size_t scan_points = 0;          ///< scan points in the crop around the part
   UpdateDecision update;                ///< the policy's decision this frame (when ICP ran)
+  SightCheck sight;                     ///< P_cad at the reported pose against the cameras' lines of sight
+                                        ///< (when the refit ran: eta >= refit_min_eta; zeros otherwise)
   TrackTiming timing;
 };
 
@@ -81,6 +86,9 @@ class PartTracker {
   double estimateEta(const Pose& T_cell_part, const Cloud& scan, std::string* why);
   void setTemplate(Indices indices);
   TrackResult refuse(TrackResult r, std::string why) const;
+  void placeSparse(const Pose& T_cell_part);
+  int sightScore(const Pose& T_cell_part, const SightImages& images, const ScanIndex& grid);
+  bool refit(const SightImages& images, const ScanIndex& grid, double max_distance);
 
   std::string name_;
   TrackerConfig config_;
@@ -97,12 +105,16 @@ class PartTracker {
   UpdateReference last_update_;  ///< R_last, t_last, eta_last
   Indices template_;             ///< P_tmpl
   Cloud icp_points_, icp_normals_;
+  Cloud cad_sparse_points_, cad_sparse_normals_;  ///< P_cad thinned to icp_leaf (part frame)
   Cloud visible_points_, visible_normals_;  ///< the ICP template facing a camera, this frame  ///< P_tmpl thinned to
                                             ///< icp_leaf, with normals
   int template_version_ = 0;
 
   // Per-frame buffers, kept to reuse their memory.
   Cloud crop_;
+  Cloud sight_points_, sight_normals_;  ///< P_cad thinned to icp_leaf, cell frame at a pose
+  std::vector<unsigned char> verdict_;
+  Cloud refit_points_, refit_normals_;
 };
 
 }  // namespace depowder::tracker

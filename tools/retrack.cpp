@@ -1,0 +1,172 @@
+// depowder-retrack: tracks the POINTS of a recorded run again, in process, with this build's
+// tracker and a cell's settings (optionally changed with --set), and compares every frame with
+// the run's SIM_TRUTH. Deterministic and faster than real time: the way to try a tracker change
+// on a recorded fall or push before running the cell. The planner does not see the new poses,
+// so the nozzle moves as it did in the recording.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/point_cloud_t.hpp"
+#include "depowder/sim_truth_t.hpp"
+#include "tracker_node.hpp"
+
+using namespace depowder;
+
+namespace {
+
+int usage(const std::string& error = "") {
+  if (!error.empty()) std::cerr << "depowder-retrack: " << error << "\n";
+  std::cerr << "usage: depowder-retrack RUN.lcmlog --cell CELL.yaml [--set tracker.KEY=VALUE]... [--every S]\n"
+               "                        [--from S] [--to S] [--prefix P]\n"
+               "  Tracks the log's POINTS frames with the cell's tracker settings (--set changes one, as\n"
+               "  depowder-eval's --set: icp.point_weight=1) and prints, every S seconds of the run\n"
+               "  (default 5; 0: every frame), each part's status and its error against SIM_TRUTH (with the\n"
+               "  error's rotation axis in the part frame), the fit's inlier ratio and RMS, P_cad against\n"
+               "  the cameras' lines of sight (sight seen/in front/hidden samples) and REFIT when the refit\n"
+               "  replaced the pose; then the error percentiles over the frames that reported TRACKING.\n"
+               "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
+               "  no truth.\n";
+  return error.empty() ? 0 : 2;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * (v.size() - 1) + 0.5))];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help") return usage(argc < 2 ? "missing RUN.lcmlog" : "");
+  const std::string log_path = argv[1];
+  std::string cell_path, prefix;
+  std::vector<std::pair<std::string, double>> sets;
+  double every = 5, from = 0, to = INFINITY;
+  try {
+    for (int i = 2; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (i + 1 >= argc) return usage("missing value after " + a);
+      const std::string v = argv[++i];
+      if (a == "--cell") {
+        cell_path = v;
+      } else if (a == "--prefix") {
+        prefix = v;
+      } else if (a == "--every") {
+        every = std::stod(v);
+      } else if (a == "--from") {
+        from = std::stod(v);
+      } else if (a == "--to") {
+        to = std::stod(v);
+      } else if (a == "--set") {
+        const std::size_t eq = v.find('=');
+        if (eq == std::string::npos) return usage("--set needs KEY=VALUE, got '" + v + "'");
+        std::string key = v.substr(0, eq);
+        if (key.rfind("tracker.", 0) == 0) key = key.substr(8);
+        sets.emplace_back(key, std::stod(v.substr(eq + 1)));
+      } else {
+        return usage("unknown option " + a);
+      }
+    }
+  } catch (const std::exception&) {
+    return usage("a number was expected");
+  }
+  if (cell_path.empty()) return usage("--cell is required (the cell the run was recorded with)");
+  try {
+    const node::CellConfig cell = node::loadCell(cell_path);
+    tracker::TrackerNodeOptions options = tracker::readTrackerOptions(cell);
+    for (const auto& [key, value] : sets) tracker::setField(options.tracker, key, value);
+    options.threads = 1;  // deterministic and one core: the frames come from the file, not a clock
+    tracker::TrackerNode node(cell, options);
+
+    lcm::LogFile log(log_path, "r");
+    if (!log.good()) throw std::runtime_error("cannot read LCM log '" + log_path + "'");
+    std::map<std::string, Pose> truth;  // the newest SIM_TRUTH at or before the frame
+    bool have_truth = false;
+    std::int64_t t0 = -1, frames = 0, bad = 0;
+    double next_print = from;
+    std::map<std::string, std::vector<double>> rot, trans;
+    std::map<std::string, std::map<std::string, int>> statuses;
+    std::map<std::string, std::pair<double, double>> last;  // deg, cm
+    std::map<std::string, int> refits;
+    for (const lcm::LogEvent* e; (e = log.readNextEvent()) != nullptr;) {
+      if (e->channel == prefix + "SIM_TRUTH") {
+        sim_truth_t m;
+        if (m.decode(e->data, 0, e->datalen) < 0) {
+          ++bad;
+          continue;
+        }
+        for (const auto& p : m.parts)
+          if (const auto T = node::fromMsg(p.T_cell_part)) truth[p.part] = *T;
+        have_truth = true;
+      } else if (e->channel == prefix + "POINTS") {
+        point_cloud_t m;
+        if (m.decode(e->data, 0, e->datalen) < 0) {
+          ++bad;
+          continue;
+        }
+        if (t0 < 0) t0 = m.utime;
+        const double t = 1e-6 * static_cast<double>(m.utime - t0);
+        if (t > to) break;
+        // Every frame is tracked, also before --from: the tracker's state depends on them all.
+        const std::vector<part_pose_t> poses = node.onPoints(m);
+        ++frames;
+        const bool print = t >= from && (every <= 0 || t >= next_print);
+        if (print) next_print = t + every;
+        for (std::size_t k = 0; k < poses.size(); ++k) {
+          const part_pose_t& p = poses[k];
+          const tracker::TrackResult* result = k < node.lastResults().size() ? &node.lastResults()[k] : nullptr;
+          if (result && result->refit) ++refits[p.part];
+          const auto T = node::fromMsg(p.T_cell_part);
+          const auto truth_it = truth.find(p.part);
+          if (!T || truth_it == truth.end() || t < from) continue;
+          const double dr = rotationDistanceDeg(*T, truth_it->second);
+          const double dt = 100 * translationDistance(*T, truth_it->second);
+          static const char* names[] = {"waiting", "tracking", "degraded", "lost"};
+          const std::string status = p.status >= 0 && p.status < 4 ? names[p.status] : "?";
+          ++statuses[p.part][status];
+          last[p.part] = {dr, dt};
+          if (p.status == part_pose_t::TRACKING) rot[p.part].push_back(dr), trans[p.part].push_back(dt);
+          if (print) {
+            // The rotation error's axis in the part frame: a spin about a symmetry axis shows here.
+            const Eigen::AngleAxisd aa(truth_it->second.linear().transpose() * T->linear());
+            std::printf("%7.2f s  %-10s %-8s eta %.3f  err %6.2f deg about (%+.2f %+.2f %+.2f) %5.2f cm  inliers %.2f "
+                        "rms %.2f mm  sight %d/%d/%d%s  %s\n",
+                        t, p.part.c_str(), status.c_str(), p.eta, dr, aa.axis().x(), aa.axis().y(), aa.axis().z(), dt,
+                        p.inlier_ratio, 1e3 * p.fitness, result ? result->sight.seen : 0, result ? result->sight.in_front : 0,
+                        result ? result->sight.hidden : 0, result && result->refit ? " REFIT" : "", p.status_reason.c_str());
+          }
+        }
+      }
+    }
+    if (bad) std::cerr << "depowder-retrack: " << bad << " undecodable messages skipped\n";
+    if (frames == 0 || !have_truth) {
+      std::cerr << "depowder-retrack: " << log_path << " has " << (frames == 0 ? "no POINTS frame" : "no SIM_TRUTH")
+                << " (channel prefix '" << prefix << "')\n";
+      return 1;
+    }
+    std::printf("%lld frames tracked\n", static_cast<long long>(frames));
+    for (const auto& [part, counts] : statuses) {
+      std::printf("%s: refits %d,", part.c_str(), refits[part]);
+      for (const auto& [status, n] : counts) std::printf(" %s %d", status.c_str(), n);
+      const auto& r = rot[part];
+      const auto& d = trans[part];
+      std::printf("\n  while tracking: rotation p50 %.2f p95 %.2f max %.2f deg, translation p50 %.2f p95 %.2f max %.2f cm\n",
+                  percentile(r, 0.5), percentile(r, 0.95), r.empty() ? NAN : *std::max_element(r.begin(), r.end()),
+                  percentile(d, 0.5), percentile(d, 0.95), d.empty() ? NAN : *std::max_element(d.begin(), d.end()));
+      std::printf("  last frame: %.2f deg, %.2f cm\n", last[part].first, last[part].second);
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "depowder-retrack: " << e.what() << "\n";
+    return 2;
+  }
+}
