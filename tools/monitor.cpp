@@ -106,6 +106,7 @@ int main(int argc, char** argv) {
     sim_truth_t truth{};
     bool has_truth = false;
     std::vector<double> plan_latency_ms, pose_latency_ms;
+    std::vector<double> progress_latency_ms, new_plan_latency_ms;  // the PROGRESS step; plans that are not refreshes
     std::int64_t points_seen = 0, points_lost = 0, last_seq = -1, plans = 0;
     std::set<std::int64_t> points_utimes;  // POINTS frames, to find PART_POSE frames that never came
     std::map<std::string, std::set<std::int64_t>> pose_utimes;
@@ -128,6 +129,7 @@ int main(int argc, char** argv) {
       PartView& p = parts[m.part];
       p.progress = m;
       p.has_progress = true;
+      if (m.utime > 0) progress_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
       if (m.phase == progress_t::PHASE_DONE && p.done_since == 0) p.done_since = node::nowUtime();
       if (m.phase != progress_t::PHASE_DONE) p.done_since = 0;
     });
@@ -157,7 +159,10 @@ int main(int argc, char** argv) {
     bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) {
       plan = m;
       ++plans;
-      if (m.utime > 0) plan_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
+      if (m.utime > 0) {
+        plan_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
+        if (m.reason.rfind("refresh: ", 0) != 0) new_plan_latency_ms.push_back(plan_latency_ms.back());
+      }
     });
     bus.subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t& m, const std::string&) { robot = m; });
     bus.subscribe<heartbeat_t>("HEARTBEAT",
@@ -247,6 +252,9 @@ int main(int argc, char** argv) {
         "  latency depth->PART_POSE p50 %.1f p99 %.1f ms; depth->NOZZLE_PLAN p50 %.1f p99 %.1f ms (%zu plans)\n",
         percentile(pose_latency_ms, 0.5), percentile(pose_latency_ms, 0.99), percentile(plan_latency_ms, 0.5),
         percentile(plan_latency_ms, 0.99), plan_latency_ms.size());
+    std::printf("  of which depth->PROGRESS p50 %.1f p99 %.1f ms; new plans (not refreshes) p50 %.1f p99 %.1f ms (%zu)\n",
+                percentile(progress_latency_ms, 0.5), percentile(progress_latency_ms, 0.99),
+                percentile(new_plan_latency_ms, 0.5), percentile(new_plan_latency_ms, 0.99), new_plan_latency_ms.size());
     // The machine's load (other jobs share the cores): latency figures mean little without it.
     double load[3];
     std::ifstream loadavg("/proc/loadavg");
@@ -259,7 +267,9 @@ int main(int argc, char** argv) {
          << ",\n  \"pose_latency_ms_p50\": " << percentile(pose_latency_ms, 0.5)
          << ",\n  \"pose_latency_ms_p99\": " << percentile(pose_latency_ms, 0.99)
          << ",\n  \"plan_latency_ms_p50\": " << percentile(plan_latency_ms, 0.5)
-         << ",\n  \"plan_latency_ms_p99\": " << percentile(plan_latency_ms, 0.99) << ",\n  \"load_average\": ["
+         << ",\n  \"plan_latency_ms_p99\": " << percentile(plan_latency_ms, 0.99)
+         << ",\n  \"progress_latency_ms_p99\": " << percentile(progress_latency_ms, 0.99)
+         << ",\n  \"new_plan_latency_ms_p99\": " << percentile(new_plan_latency_ms, 0.99) << ",\n  \"load_average\": ["
          << load[0] << ", " << load[1] << ", " << load[2] << "],\n  \"processes\": {";
     first = true;
     for (const auto& [name, h] : processes) {

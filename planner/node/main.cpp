@@ -1,6 +1,7 @@
 // depowder-planner: PART_POSE + PROGRESS + ROBOT_STATE -> NOZZLE_PLAN (paper Sec. III-B: contour
 // paths through the three phases, FCL-checked, OMPL transitions, one part per cycle), with a
 // heartbeat. The logic is in planner_node.hpp and the library; this file is the bus.
+#include <iomanip>
 #include <iostream>
 
 #include "depowder/heartbeat_t.hpp"
@@ -69,7 +70,8 @@ int main(int argc, char** argv) {
         bus.publish("NOZZLE_PLAN", *plan);
         if (plan->reason.rfind("refresh: ", 0) != 0)
           std::cout << "depowder-planner: plan " << plan->plan_id << " (" << plan->part << ", " << plan->num_waypoints
-                    << " waypoints): " << plan->reason << std::endl;
+                    << " waypoints, " << std::fixed << std::setprecision(1) << logic.stats().last_planning_ms
+                    << " ms): " << plan->reason << std::endl;
       }
       for (const std::string& e : bus.takeErrors()) std::cerr << "depowder-planner: " << e << std::endl;
 

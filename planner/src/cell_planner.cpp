@@ -138,6 +138,7 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   s.progress = in;
   if (in.status == ProgressStatus::kOk) s.powder = in.h_pow;
   newest_utime_ = std::max(newest_utime_, in.utime);
+  newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
   return {};
 }
 
@@ -145,6 +146,10 @@ InputResult CellPlanner::onRobot(const RobotInput& in) {
   for (double v : in.q)
     if (!std::isfinite(v)) return {InputStatus::kInvalidValue, "ROBOT_STATE has non-finite joints"};
   robot_ = in;
+  if (active_is_cycle_ && cycle_end_robot_utime_ < 0 && cycleFinished()) {  // the cycle just ended (step 2a)
+    cycle_end_progress_utime_ = newest_progress_utime_;
+    cycle_end_robot_utime_ = in.utime;
+  }
   return {};
 }
 
@@ -184,6 +189,7 @@ std::optional<Plan> CellPlanner::emit(Plan plan) {
   active_size_ = plan.waypoints.size();
   active_waypoints_ = plan.waypoints;
   active_utime_ = plan.utime;
+  cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
   active_reason_ = plan.reason.rfind("refresh: ", 0) == 0 ? plan.reason : "refresh: " + plan.reason;
   active_part_name_ = plan.part;
   active_plan_phase_ = plan.phase;
@@ -253,6 +259,18 @@ std::optional<Plan> CellPlanner::step() {
 
   // 2. Which part: stay on the active one until its cycle finishes, then the others in turn.
   const bool cycle_done = active_is_cycle_ && cycleFinished();
+  // 2a. The next cycle is planned on the first estimates that come after the last one ended, not
+  //     on those it ran on (up to a frame older): the plan then reflects the newest depth frame
+  //     (the depth -> NOZZLE_PLAN latency), for at most kNextFrameWait of robot time idle.
+  if (cycle_done) {
+    constexpr std::int64_t kNextFrameWait = 100000;  // us: three camera frames
+    if (cycle_end_robot_utime_ < 0) {
+      cycle_end_progress_utime_ = newest_progress_utime_;
+      cycle_end_robot_utime_ = robot_->utime;
+    }
+    if (newest_progress_utime_ <= cycle_end_progress_utime_ && robot_->utime - cycle_end_robot_utime_ < kNextFrameWait)
+      return std::nullopt;
+  }
   const bool continuing = active_is_cycle_ && !cycle_done && active_part_ >= 0 && eligible(active_part_);
   std::vector<int> candidates;
   if (continuing) {

@@ -150,16 +150,25 @@ Plan planCycle(const CollisionWorld& world, const CycleRequest& request, const P
   PushMode push = PushMode::kOutward;
   std::string what;
   if (request.phase == Phase::kVacuumBuried || request.phase == Phase::kVacuumTracked) {
+    // The loop runs where the collision check lets the nozzle be: at the stand-off, or just
+    // outside the nozzle's radius and margins around this part if they need more (25 mm <
+    // 12.5 + 2.5 + 12 mm by default). Built at the stand-off, every waypoint would be pushed out
+    // step by step in refinePath: a fifth of a new loop's planning (depowder-planner-bench).
+    const double margin = world.partState(request.part) == PartState::kLost ? config.collision.lost_margin
+                                                                             : config.collision.tracking_margin;
+    PlannerConfig loop_config = config;
+    loop_config.vacuum.standoff = std::max(
+        config.vacuum.standoff, config.nozzle.radius + config.nozzle.margin + margin + 0.5 * config.collision.push_step);
     LoopResult loop;
     std::string fallback;
     if (!request.contour.empty()) {
-      loop = contourLoop(part, T_cell_part, request.contour, request.powder_height, nozzle_now, config);
+      loop = contourLoop(part, T_cell_part, request.contour, request.powder_height, nozzle_now, loop_config);
       if (!loop.ok()) fallback = loop.reason;
     } else {
       fallback = request.no_contour.empty() ? "no contour" : request.no_contour;
     }
     if (!loop.ok() && loop.status != PathStatus::kInvalidPose && loop.status != PathStatus::kInvalidHeight)
-      loop = footprintLoop(part, T_cell_part, request.powder_height, nozzle_now, config);
+      loop = footprintLoop(part, T_cell_part, request.powder_height, nozzle_now, loop_config);
     if (!loop.ok()) {
       plan.status = PlanStatus::kNoPath;
       plan.reason = "hold: no vacuum loop for " + part.name() + ": " + loop.reason;

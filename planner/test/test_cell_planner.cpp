@@ -84,8 +84,12 @@ TEST_F(CellTest, TwoCubesTakeTurnsOneCycleEach) {
   // Half-way through: still nothing.
   robotAt(*p1, static_cast<int>(p1->waypoints.size() / 2));
   EXPECT_FALSE(planner->step());
-  // Cycle finished: the right cube next, then the left again.
+  // Cycle finished: the right cube next (on the next frame's estimates), then the left again.
   robotAt(*p1, static_cast<int>(p1->waypoints.size()));
+  EXPECT_FALSE(planner->step()) << "the next cycle waits for the next frame";
+  utime += 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
   auto p2 = planner->step();
   ASSERT_TRUE(p2 && p2->hasWaypoints()) << (p2 ? p2->reason : "no plan");
   EXPECT_EQ(p2->part, "right");
@@ -94,11 +98,50 @@ TEST_F(CellTest, TwoCubesTakeTurnsOneCycleEach) {
   EXPECT_EQ(p2->waypoints.front().tool, Tool::kOff);
   EXPECT_TRUE(check(*p2, T_left, T_right).clean()) << check(*p2, T_left, T_right).first;
   robotAt(*p2, static_cast<int>(p2->waypoints.size()));
+  utime += 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
   auto p3 = planner->step();
   ASSERT_TRUE(p3 && p3->hasWaypoints());
   EXPECT_EQ(p3->part, "left");
   EXPECT_EQ(planner->parts()[0].cycles, 2);
   EXPECT_EQ(planner->parts()[1].cycles, 1);
+}
+
+// The cell's stand-off (25 mm) is inside the nozzle's radius and margins around a tracked part
+// (12.5 + 2.5 + 12 mm, config/cell.yaml): the loop is built just outside them, so no waypoint has
+// to be pushed out step by step (before: 41 of 41 were).
+TEST_F(CellTest, VacuumLoopIsBuiltOutsideTheNozzleMargins) {
+  config.collision.tracking_margin = 0.012;  // as config/cell.yaml
+  SetUp();
+  ASSERT_LT(config.vacuum.standoff, config.nozzle.radius + config.nozzle.margin + config.collision.tracking_margin);
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  const auto plan = planner->step();
+  ASSERT_TRUE(plan && plan->hasWaypoints()) << (plan ? plan->reason : "no plan");
+  EXPECT_GT(plan->report.kept, 20);
+  EXPECT_EQ(plan->report.pushed, 0) << plan->reason;
+  EXPECT_EQ(plan->report.dropped, 0) << plan->reason;
+  EXPECT_TRUE(check(*plan, T_left, T_right).clean()) << check(*plan, T_left, T_right).first;
+}
+
+// A finished cycle's successor is planned on the next frame's estimates (its depth -> plan
+// latency is that frame's, not up to a frame more), but without new frames it goes on after
+// 0.1 s of robot time with the estimates it has.
+TEST_F(CellTest, NextCycleWaitsForTheNextFrameAtMostAMoment) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  const auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints()) << (p1 ? p1->reason : "no plan");
+  const std::int64_t frame_utime = utime;
+  robotAt(*p1, static_cast<int>(p1->waypoints.size()));
+  EXPECT_FALSE(planner->step());
+  utime += 50000;  // the robot reports again, 50 ms later: still waiting
+  robotAt(*p1, static_cast<int>(p1->waypoints.size()));
+  EXPECT_FALSE(planner->step());
+  utime += 60000;  // 110 ms: no new frame came, go on
+  robotAt(*p1, static_cast<int>(p1->waypoints.size()));
+  const auto p2 = planner->step();
+  ASSERT_TRUE(p2 && p2->hasWaypoints()) << (p2 ? p2->reason : "no plan");
+  EXPECT_EQ(p2->utime, frame_utime) << "planned on the last estimates";
+  EXPECT_EQ(p2->reason.find("refresh"), std::string::npos);
 }
 
 TEST_F(CellTest, PhaseSwitchChangesTheTool) {
@@ -286,6 +329,8 @@ TEST_F(CellTest, RunningPlanIsRefreshedWithNewerFrames) {
     EXPECT_TRUE(p2->waypoints[i].T_cell_nozzle.isApprox(p1->waypoints[i + 12].T_cell_nozzle));
   // The refreshed plan's end still ends the cycle.
   robotAt(*p2, static_cast<int>(p2->waypoints.size()));
+  utime += 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
   auto p3 = planner->step();
   ASSERT_TRUE(p3 && p3->hasWaypoints());
   EXPECT_EQ(p3->reason.find("refresh"), std::string::npos) << "a new cycle, not a refresh";
@@ -313,6 +358,9 @@ TEST_F(CellTest, LostPartIsSkippedAndReported) {
   EXPECT_TRUE(planner->parts()[0].lost);
   EXPECT_NE(planner->parts()[0].note.find("lost"), std::string::npos);
   robotAt(*p, static_cast<int>(p->waypoints.size()));
+  utime += 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04, TrackStatus::kLost);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
   auto again = planner->step();
   ASSERT_TRUE(again && again->hasWaypoints());
   EXPECT_EQ(again->part, "right");

@@ -115,6 +115,8 @@ class CellPlanner {
   std::vector<PartReport> reports_;
   std::optional<RobotInput> robot_;
   std::int64_t newest_utime_ = 0;
+  std::int64_t newest_progress_utime_ = 0;  ///< the last step of a frame's pipeline
+  std::int64_t cycle_end_progress_utime_ = -1, cycle_end_robot_utime_ = -1;  ///< when the active cycle was seen done
   std::int64_t next_plan_id_ = 1;
   // The plan being executed.
   std::int64_t active_id_ = 0;
