@@ -104,10 +104,9 @@ class PartTracker {
   double eta_ = 0;               ///< last estimate
   UpdateReference last_update_;  ///< R_last, t_last, eta_last
   Indices template_;             ///< P_tmpl
-  Cloud icp_points_, icp_normals_;
+  Cloud icp_points_, icp_normals_;                ///< P_tmpl thinned to icp_leaf, with normals
   Cloud cad_sparse_points_, cad_sparse_normals_;  ///< P_cad thinned to icp_leaf (part frame)
-  Cloud visible_points_, visible_normals_;  ///< the ICP template facing a camera, this frame  ///< P_tmpl thinned to
-                                            ///< icp_leaf, with normals
+  Cloud visible_points_, visible_normals_;        ///< the ICP template facing a camera, this frame
   int template_version_ = 0;
 
   // Per-frame buffers, kept to reuse their memory.

@@ -18,14 +18,13 @@ struct SightCheck {
   int in_front = 0;  ///< in front of the scanned surface for some camera and seen by none: free space
   int hidden = 0;    ///< behind the scanned surface for every camera that looked (powder, the part itself)
   int unknown = 0;   ///< no camera faces it or no scan point along its line of sight
-  /// The share of the points the cameras could judge that lie in free space.
-  double inFrontRatio() const { return seen + in_front > 0 ? static_cast<double>(in_front) / (seen + in_front) : 0; }
 };
 
 /// The scan as range images, one per camera, over the lines of sight through `region` (cell
-/// frame): the nearest scan point per pixel of `pixel` radians. Points of the merged scan that
-/// one camera did not see can only make that camera's image nearer, so a point judged in front
-/// of the surface is in front of what some camera saw.
+/// frame): the nearest scan point per pixel of `pixel` radians. The scan is the cameras' merged
+/// cloud, so a camera's image also holds what only the other camera saw; a point judged in front
+/// lies between the camera and a scanned surface, which is evidence against the pose unless
+/// something the scan does not hold (the box walls are cropped out) hid that surface from it.
 class SightImages {
  public:
   SightImages(const Cloud& scan, const std::vector<Point>& viewpoints, const Eigen::AlignedBox3d& region,
