@@ -261,16 +261,12 @@ std::optional<Plan> CellPlanner::step() {
   const bool cycle_done = active_is_cycle_ && cycleFinished();
   // 2a. The next cycle is planned on the first estimates that come after the last one ended, not
   //     on those it ran on (up to a frame older): the plan then reflects the newest depth frame
-  //     (the depth -> NOZZLE_PLAN latency), for at most kNextFrameWait of robot time idle.
-  if (cycle_done) {
-    constexpr std::int64_t kNextFrameWait = 100000;  // us: three camera frames
-    if (cycle_end_robot_utime_ < 0) {
-      cycle_end_progress_utime_ = newest_progress_utime_;
-      cycle_end_robot_utime_ = robot_->utime;
-    }
-    if (newest_progress_utime_ <= cycle_end_progress_utime_ && robot_->utime - cycle_end_robot_utime_ < kNextFrameWait)
-      return std::nullopt;
-  }
+  //     (the depth -> NOZZLE_PLAN latency), for at most kNextFrameWait of robot time idle. The
+  //     cycle's end is recorded by onRobot, the one place it can happen.
+  constexpr std::int64_t kNextFrameWait = 100000;  // us: three camera frames
+  if (cycle_done && newest_progress_utime_ <= cycle_end_progress_utime_ &&
+      robot_->utime - cycle_end_robot_utime_ < kNextFrameWait)
+    return std::nullopt;
   const bool continuing = active_is_cycle_ && !cycle_done && active_part_ >= 0 && eligible(active_part_);
   std::vector<int> candidates;
   if (continuing) {
