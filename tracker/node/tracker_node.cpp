@@ -49,6 +49,15 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   icp.read("min_correspondences", c.icp.min_correspondences, 6, 1000000);
   icp.read("point_weight", c.icp.point_weight, 0.0, 1.0);
   icp.finish();
+  const node::YamlReader filter = r.child("filter");
+  filter.read("data_inflation", c.filter.data_inflation, 0.0, 1e6);
+  filter.read("q_yaw_deg", c.filter.q_yaw_deg, 1e-6, 90.0);
+  filter.read("q_tilt_deg", c.filter.q_tilt_deg, 1e-6, 90.0);
+  filter.read("q_xy", c.filter.q_xy, 1e-7, 1.0);
+  filter.read("q_z", c.filter.q_z, 1e-7, 1.0);
+  filter.read("initial_deg", c.filter.initial_deg, 1e-6, 180.0);
+  filter.read("initial_m", c.filter.initial_m, 1e-7, 1.0);
+  filter.finish();
   const node::YamlReader st = r.child("status");
   st.read("tracking_min_inlier_ratio", c.status.tracking_min_inlier_ratio, 0.0, 1.0);
   st.read("tracking_max_rms", c.status.tracking_max_rms, 1e-6, 0.1);

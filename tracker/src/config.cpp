@@ -53,6 +53,13 @@ std::string validate(const TrackerConfig& c) {
   if (!fraction(c.icp.weak_direction)) return "icp.weak_direction must be in [0, 1]";
   if (!nonNegative(c.icp.hold_chi2)) return "icp.hold_chi2 must be >= 0";
   if (!fraction(c.icp.point_weight)) return "icp.point_weight must be in [0, 1]";
+  if (!(std::isfinite(c.filter.data_inflation) && c.filter.data_inflation >= 0))
+    return "filter.data_inflation must be >= 0 (0 = off)";
+  if (!positive(c.filter.q_yaw_deg) || !positive(c.filter.q_tilt_deg) || !positive(c.filter.q_xy) ||
+      !positive(c.filter.q_z))
+    return "filter.q_yaw_deg, q_tilt_deg, q_xy and q_z must be > 0";
+  if (!positive(c.filter.initial_deg) || !positive(c.filter.initial_m))
+    return "filter.initial_deg and filter.initial_m must be > 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
   if (c.icp.min_correspondences < 6) return "icp.min_correspondences must be >= 6";
   if (!fraction(c.status.tracking_min_inlier_ratio)) return "status.tracking_min_inlier_ratio must be in [0, 1]";
@@ -85,6 +92,13 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"icp.hold_chi2", &c.icp.hold_chi2},
                                               {"icp.point_weight", &c.icp.point_weight},
                                               {"icp.max_step_rotation", &c.icp.max_step_rotation},
+                                              {"filter.data_inflation", &c.filter.data_inflation},
+                                              {"filter.q_yaw_deg", &c.filter.q_yaw_deg},
+                                              {"filter.q_tilt_deg", &c.filter.q_tilt_deg},
+                                              {"filter.q_xy", &c.filter.q_xy},
+                                              {"filter.q_z", &c.filter.q_z},
+                                              {"filter.initial_deg", &c.filter.initial_deg},
+                                              {"filter.initial_m", &c.filter.initial_m},
                                               {"progress.grid_cell", &c.progress.grid_cell},
                                               {"progress.contour_spacing", &c.progress.contour_spacing},
                                               {"progress.footprint_reuse", &c.progress.footprint_reuse}};

@@ -55,6 +55,27 @@ PartTracker::PartTracker(std::string name, const Mesh& mesh, const Pose& T_cell_
   eta_estimator_ = progress::EtaEstimator(cad_sparse_points_, xi_, config_.progress);
   T_cell_part_ = T_cell_part_init_;
   last_update_ = {T_cell_part_init_, 0.0};
+  resetInformation();
+}
+
+void PartTracker::resetInformation() {
+  const double r = config_.filter.initial_deg * M_PI / 180, t = config_.filter.initial_m;
+  information_.setZero();
+  information_.diagonal() << Eigen::Vector3d::Constant(1 / (r * r)), Eigen::Vector3d::Constant(1 / (t * t));
+}
+
+// The filter's prediction for the next frame: the part stays where it was, less sure by the
+// process noise, which is set in the cell frame (tips seldom, slides) and taken into the part frame.
+Eigen::Matrix<double, 6, 6> PartTracker::predictedInformation() const {
+  const FilterConfig& f = config_.filter;
+  const double yaw = f.q_yaw_deg * M_PI / 180, tilt = f.q_tilt_deg * M_PI / 180;
+  const Eigen::Matrix3d R = T_cell_part_.linear();
+  Eigen::Matrix<double, 6, 6> covariance = information_.inverse();
+  covariance.topLeftCorner<3, 3>() += R.transpose() * Eigen::Vector3d(tilt * tilt, tilt * tilt, yaw * yaw).asDiagonal() * R;
+  covariance.bottomRightCorner<3, 3>() +=
+      R.transpose() * Eigen::Vector3d(f.q_xy * f.q_xy, f.q_xy * f.q_xy, f.q_z * f.q_z).asDiagonal() * R;
+  const Eigen::Matrix<double, 6, 6> predicted = covariance.inverse();
+  return 0.5 * (predicted + predicted.transpose());
 }
 
 double PartTracker::correspondenceDistance() const {
@@ -210,7 +231,10 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     src = &visible_points_;
     src_n = &visible_normals_;
   }
-  const RegistrationResult reg = registerPointToPlane(*src, *src_n, grid, T_cell_part_, max_distance, config_.icp);
+  const bool filter = config_.filter.data_inflation > 0;
+  const Eigen::Matrix<double, 6, 6> predicted = filter ? predictedInformation() : Eigen::Matrix<double, 6, 6>::Zero();
+  const RegistrationResult reg = registerPointToPlane(*src, *src_n, grid, T_cell_part_, max_distance, config_.icp,
+                                                      filter ? &predicted : nullptr);
   r.timing.icp_ms = msSince(t0);
   r.iterations = reg.iterations;
   r.fitness = reg.rms;
@@ -227,6 +251,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     return finish(refuse(
         r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
   T_cell_part_ = reg.T_target_source;
+  if (filter) information_ = predicted + reg.information / config_.filter.data_inflation;  // the update
   r.held = reg.held;
   r.T_cell_part = T_cell_part_;
   r.status = TrackStatus::kTracking;
@@ -254,6 +279,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     region.max().array() += config_.crop_margin;
     const SightImages images(scan, viewpoints, region);
     if (refit(images, grid, max_distance)) {
+      resetInformation();  // what the filter knew was about the wrong pose
       refitted = true;
       r.refit = true;
       r.held = false;

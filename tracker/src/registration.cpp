@@ -111,6 +111,12 @@ LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const 
   return sys;
 }
 
+// Robust-weighted residual variance of a round's matches (m^2), never below (0.1 mm)^2: a
+// noise-free synthetic fit must not claim infinite information.
+double residualVariance(const LinearSystem& sys) {
+  return std::max(sys.sum_w > 0 ? sys.sum_wr2 / sys.sum_w : 0.0, 1e-8);
+}
+
 // exp(delta) to first order in the translation (the increments are small): rotation by
 // angle-axis omega, then translation v.
 Pose increment(const Vector6d& delta) {
@@ -125,7 +131,8 @@ Pose increment(const Vector6d& delta) {
 }  // namespace
 
 RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
-                                        const Pose& guess, double max_distance, const IcpConfig& config) {
+                                        const Pose& guess, double max_distance, const IcpConfig& config,
+                                        const Matrix6d* prior) {
   RegistrationResult result;
   const bool guess_ok = guess.matrix().allFinite() && isValidPose(guess, 1e-4);
   if (guess_ok) {
@@ -205,7 +212,14 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
     const Matrix6d Hs = S.asDiagonal() * sys.H * S.asDiagonal();
     Vector6d gs = S.asDiagonal() * sys.g;
     Matrix6d A = Hs;
-    if (config.motion_prior > 0 || config.hold_chi2 > 0) {
+    if (prior != nullptr) {
+      // The filter's information about the deviation from the guess, in the residuals' units:
+      // min sum w r^2 / variance + d' P d, with d = S e.
+      const double variance = residualVariance(sys);
+      const Matrix6d P = variance * S.asDiagonal() * (*prior) * S.asDiagonal();
+      A += P;
+      gs.noalias() += P * deviation(T);
+    } else if (config.motion_prior > 0 || config.hold_chi2 > 0) {
       const Vector6d e = deviation(T);
       eig.compute(Hs);
       weak_sum_w = sys.sum_w;
@@ -241,12 +255,13 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
   }
   T.linear() = orthonormalized(T.linear());
   result.T_target_source = T;
+  if (sys.matches > 0) result.information = sys.H / residualVariance(sys);
   // The hold: along the weak directions the scan would move the estimate (the least-squares
   // optimum there, without the prior) by no more than its noise would: the weighted squared
   // residuals would fall by less than hold_chi2 variances (about chi-square for a part that
   // stayed still). Then the estimate stays at the guess there: a still tube does not
   // random-walk about its axis, and a turning one adds up until it stands out.
-  if (config.hold_chi2 > 0 && weak_sum_w > 0 && sys.sum_w > 0 && sys.sum_wr2 > 0) {
+  if (prior == nullptr && config.hold_chi2 > 0 && weak_sum_w > 0 && sys.sum_w > 0 && sys.sum_wr2 > 0) {
     const double variance = sys.sum_wr2 / sys.sum_w;
     double chi2 = 0;
     Vector6d weak_part = Vector6d::Zero();

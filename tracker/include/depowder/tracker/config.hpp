@@ -51,6 +51,25 @@ struct StatusConfig {
   double lost_max_rms = 0.006;             ///< m; above: LOST
 };
 
+/// Not in the paper: an alternative to IcpConfig's motion prior and hold for parts that move
+/// (tracker/README.md, "The filter"). The pose carries an information matrix from frame to frame
+/// (a Kalman filter's, in information form): it loses the process noise below each frame and
+/// gains each fit's. ICP is pulled towards the last pose by that information, so what the scans
+/// have shown over many frames holds, and a direction they constrain well follows the scan at
+/// once. The process noise is set per cell-frame direction: a part in powder slides and turns
+/// about the vertical, it seldom tips, so a roll that the scan cannot tell from a slide is
+/// resolved as the slide.
+struct FilterConfig {
+  double data_inflation = 0;  ///< a fit counts this many times less than its residuals claim (they are not
+                              ///< independent); 0 = off: the motion prior and the hold instead
+  double q_yaw_deg = 0.2;     ///< deg per frame: process noise of a turn about the vertical
+  double q_tilt_deg = 0.01;   ///< deg per frame: of a tip about a horizontal axis
+  double q_xy = 0.001;        ///< m per frame: of a horizontal slide
+  double q_z = 0.0002;        ///< m per frame: of a rise or a sink
+  double initial_deg = 0.5;   ///< uncertainty of the initial pose (and of a refit's), deg...
+  double initial_m = 0.001;   ///< ...and m
+};
+
 struct TrackerConfig {
   Method method = Method::kCu;
   double delta1_deg = 30;         ///< deg, Eq. 1 rotation threshold (paper Sec. V-A: 30 deg)
@@ -69,6 +88,7 @@ struct TrackerConfig {
   double refit_min_eta = 0.85;    ///< the refit runs only above this progress: with more of the part under powder, a
                                   ///< whole-model score prefers poses that lift the buried part onto the powder
   IcpConfig icp;
+  FilterConfig filter;
   StatusConfig status;
   progress::ProgressConfig progress;  ///< Eq. 2 settings for the update rule (Alg. 1, line 11)
 };

@@ -108,6 +108,10 @@ class PartTracker {
   Cloud cad_sparse_points_, cad_sparse_normals_;  ///< P_cad thinned to icp_leaf (part frame)
   Cloud visible_points_, visible_normals_;        ///< the ICP template facing a camera, this frame
   int template_version_ = 0;
+  /// The filter's information about T_i (FilterConfig; rotation vector then translation, part frame).
+  Eigen::Matrix<double, 6, 6> information_ = Eigen::Matrix<double, 6, 6>::Zero();
+  void resetInformation();
+  Eigen::Matrix<double, 6, 6> predictedInformation() const;
 
   // Per-frame buffers, kept to reuse their memory.
   Cloud crop_;

@@ -31,6 +31,10 @@ struct RegistrationResult {
   double rms = 0;                           ///< m, RMS point-to-plane residual of the last round's matches
   double weak_motion_chi2 = 0;              ///< the move along the weak directions over the fit's noise (see hold_chi2)
   bool held = false;                        ///< the weak directions were kept at the guess (config.hold_chi2)
+  /// What the last round's matches say about the pose: their Gauss-Newton matrix over the
+  /// residual variance (1/rad^2, 1/m^2), in the update's coordinates (rotation vector, then
+  /// translation, of the source frame). The filter (FilterConfig) adds it up over frames.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
   bool ok() const { return status == RegistrationStatus::kConverged || status == RegistrationStatus::kMaxIterations; }
 };
 
@@ -45,8 +49,13 @@ struct RegistrationResult {
 /// registration). config.point_weight > 0 adds the match's offset along the tangent plane
 /// (1: point-to-point).
 /// config.max_correspondence_distance is not read here.
+///
+/// `prior`, if given, replaces the motion prior and the hold: the information (as
+/// RegistrationResult::information) about the pose's deviation from `guess`; the estimate then
+/// minimises the residuals over their variance plus that deviation's squared norm in it.
 RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
-                                        const Pose& guess, double max_distance, const IcpConfig& config);
+                                        const Pose& guess, double max_distance, const IcpConfig& config,
+                                        const Eigen::Matrix<double, 6, 6>* prior = nullptr);
 
 /// Same, indexing `target` itself (tests, one-off registrations).
 RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
