@@ -6,7 +6,9 @@
 // every random draw. Ctrl-C stops at the next frame and writes what finished.
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -47,6 +49,7 @@ const char* kUsage =
     "  --duration S           static: seconds of frames per trial (default 2.5)\n"
     "  --cell FILE            box and cameras from this cell file (default config/cell.yaml)\n"
     "  --json FILE            write the results as JSON\n"
+    "  --trace FILE           static, moving: every tracked frame of every method as CSV (error in the part frame)\n"
     "  --out DIR              report: where results.md and the PNGs go (default docs)\n"
     "  --from FILE            report: rebuild DIR/results.md from a JSON file that report --json wrote\n"
     "  --notes FILE           report: markdown appended verbatim (default tools/eval/report_notes.md)\n"
@@ -81,7 +84,7 @@ double number(const std::string& flag, const std::string& text) {
 struct Args {
   std::string command;
   std::vector<std::string> parts;
-  std::string mesh, json, cell, out = "docs", from, notes;
+  std::string mesh, json, cell, out = "docs", from, notes, trace;
   double xi = 0, mesh_scale = 1;
   std::vector<tracker::Method> methods{tracker::Method::kCu, tracker::Method::kContinuous, tracker::Method::kVanilla};
   int trials = 0, speed_trials = 0, moving_trials = 0;
@@ -159,6 +162,8 @@ Args parse(int argc, char** argv) {
       a.cell = v;
     } else if (f == "--json") {
       a.json = v;
+    } else if (f == "--trace") {
+      a.trace = v;
     } else if (f == "--out") {
       a.out = v;
     } else if (f == "--from") {
@@ -215,11 +220,23 @@ std::vector<EvalPart> partsOf(const Args& a) {
   return out;
 }
 
-RunControl control(ProgressBar& bar) {
+RunControl control(ProgressBar& bar, std::ofstream* trace = nullptr) {
   RunControl c;
   c.stop = [] { return node::shutdownRequested(); };
   c.progress = [&bar](double done, double total, const std::string& what) { bar.update(done, total, what); };
+  if (trace != nullptr) c.trace = [trace](const TraceRow& row) { *trace << traceLine(row) << '\n'; };
   return c;
+}
+
+// --trace FILE, opened with its header; none without the flag.
+std::unique_ptr<std::ofstream> openTrace(const Args& a) {
+  if (a.trace.empty()) return nullptr;
+  if (a.command != "static" && a.command != "moving")
+    throw std::invalid_argument("--trace is for static and moving, not " + a.command);
+  auto out = std::make_unique<std::ofstream>(a.trace);
+  if (!*out) throw std::runtime_error("cannot write the trace file '" + a.trace + "'");
+  *out << traceHeader() << '\n';
+  return out;
 }
 
 StaticOptions staticOptions(const Args& a) {
@@ -326,11 +343,12 @@ int run(const Args& a) {
   EvalCell cell = loadEvalCell(a.cell);
   for (const auto& [key, value] : a.sets) tracker::setField(cell.tracker, key, value);
   const std::vector<EvalPart> parts = partsOf(a);
+  const std::unique_ptr<std::ofstream> trace = openTrace(a);
   bool interrupted = false;
   if (a.command == "static") {
     ProgressBar bar("static", !a.quiet);
     const StaticOptions o = staticOptions(a);
-    const StaticResult r = runStatic(cell, parts, a.methods, o, control(bar));
+    const StaticResult r = runStatic(cell, parts, a.methods, o, control(bar, trace.get()));
     bar.finish();
     printStatic(r);
     save(a.json, toJson(r, o), a);
@@ -347,7 +365,7 @@ int run(const Args& a) {
   } else if (a.command == "moving") {
     ProgressBar bar("moving", !a.quiet);
     const MovingOptions o = movingOptions(a, a.trials);
-    const MovingResult r = runMoving(cell, parts, a.methods, o, control(bar));
+    const MovingResult r = runMoving(cell, parts, a.methods, o, control(bar, trace.get()));
     bar.finish();
     printMoving(r);
     save(a.json, toJson(r, o), a);

@@ -1,6 +1,7 @@
 #include "experiment_util.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <numeric>
 #include <stdexcept>
@@ -58,6 +59,35 @@ tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell&
   c.method = method;
   c.viewpoints = viewpoints(cell.cameras);
   return c;
+}
+
+std::string traceHeader() {
+  return "experiment,part,method,trial,frame,rot_err_deg,trans_err_mm,err_rx_deg,err_ry_deg,err_rz_deg,"
+         "err_x_mm,err_y_mm,err_z_mm,moved_mm,turned_deg,status,iterations,inlier_ratio,rms_mm,eta,"
+         "template_updated,held,refit";
+}
+
+std::string traceLine(const TraceRow& row) {
+  const Pose E = row.T_true.inverse(Eigen::Isometry) * row.T_estimate;
+  const Eigen::AngleAxisd aa(E.linear());
+  const Eigen::Vector3d w = aa.angle() * 180.0 / M_PI * aa.axis();
+  const Eigen::Vector3d t = 1000.0 * E.translation();
+  const Pose M = row.T_start.inverse(Eigen::Isometry) * row.T_true;
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%s,%s,%s,%d,%d,%.3f,%.2f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.3f", row.experiment.c_str(),
+                row.part.c_str(), row.method.c_str(), row.trial, row.frame, aa.angle() * 180.0 / M_PI, t.norm(), w.x(),
+                w.y(), w.z(), t.x(), t.y(), t.z(), 1000.0 * M.translation().norm(),
+                Eigen::AngleAxisd(M.linear()).angle() * 180.0 / M_PI);
+  std::string line = buf;
+  if (const tracker::TrackResult* r = row.result) {
+    std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d,%d", tracker::toString(r->status), r->iterations,
+                  r->inlier_ratio, 1000.0 * r->fitness, r->eta, r->template_updated ? 1 : 0, r->held ? 1 : 0,
+                  r->refit ? 1 : 0);
+    line += buf;
+  } else {
+    line += ",,,,,,,,";
+  }
+  return line;
 }
 
 }  // namespace depowder::eval

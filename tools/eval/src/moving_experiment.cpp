@@ -108,7 +108,12 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
             world.removeNozzle();
         });
         const Cloud scan = source.capture(world);
-        for (std::size_t m = 0; m < methods.size(); ++m) last[m] = trackers[m].track(scan).T_cell_part;
+        const Pose T_true = control.trace ? world.partTruth(0).T_cell_part : Pose::Identity();
+        for (std::size_t m = 0; m < methods.size(); ++m) {
+          const tracker::TrackResult tr = trackers[m].track(scan);
+          last[m] = tr.T_cell_part;
+          control.record({"moving", part.name, tracker::toString(methods[m]), trial, f, T_true, tr.T_cell_part, T0, &tr});
+        }
         done += 1;
         control.tell(done, total,
                      "moving " + part.name + " trial " + std::to_string(trial + 1) + "/" + std::to_string(o.trials));

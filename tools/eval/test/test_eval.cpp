@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -90,13 +91,19 @@ TEST(EvalScene, ConversionKeepsTheFrame) {
   EXPECT_TRUE(in.camera.T_cell_camera.isApprox(f.T_cell_camera));
 }
 
-TEST(EvalStatic, ShortRunShapeBoundsAndDeterminism) {
-  const EvalCell cell = testCell();
+// One trial of 15 frames at 60 %, seed 7.
+StaticOptions shortStatic() {
   StaticOptions o;
   o.visibilities = {0.6};
   o.trials = 1;
   o.duration = 0.5;  // 15 frames
   o.seed = 7;
+  return o;
+}
+
+TEST(EvalStatic, ShortRunShapeBoundsAndDeterminism) {
+  const EvalCell cell = testCell();
+  const StaticOptions o = shortStatic();
   const std::vector<EvalPart> parts{defaultPart("cube")};
   const StaticResult r = runStatic(cell, parts, allMethods(), o);
   ASSERT_FALSE(r.interrupted);
@@ -130,6 +137,45 @@ TEST(EvalStatic, ShortRunShapeBoundsAndDeterminism) {
   ASSERT_EQ(again.rows.size(), 1u);
   EXPECT_EQ(again.rows[0].rot_err_deg, r.rows[0].rot_err_deg);
   EXPECT_EQ(again.rows[0].trans_err_cm, r.rows[0].trans_err_cm);
+}
+
+// --trace: one row per tracked frame and method, its error the same as the tables' (the last
+// frame's is the row's final error), the CSV line as wide as its header.
+TEST(EvalStatic, TraceHasEveryFrameAndTheTablesErrors) {
+  const EvalCell cell = testCell();
+  const StaticOptions o = shortStatic();
+  std::vector<TraceRow> rows;
+  std::vector<tracker::TrackResult> results;
+  RunControl control;
+  control.trace = [&](const TraceRow& row) {
+    rows.push_back(row);
+    results.push_back(*row.result);
+  };
+  const StaticResult r = runStatic(cell, {defaultPart("cube")}, allMethods(), o, control);
+  ASSERT_EQ(r.rows.size(), 3u);
+  ASSERT_EQ(rows.size(), 15u * 3u);
+  const auto commas = [](const std::string& line) { return std::count(line.begin(), line.end(), ','); };
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    EXPECT_EQ(rows[k].frame, static_cast<int>(k / 3));
+    EXPECT_EQ(rows[k].method, tracker::toString(allMethods()[k % 3]));
+    EXPECT_TRUE(rows[k].T_estimate.isApprox(results[k].T_cell_part));
+    TraceRow row = rows[k];
+    row.result = &results[k];
+    EXPECT_EQ(commas(traceLine(row)), commas(traceHeader()));
+  }
+  for (std::size_t m = 0; m < 3; ++m) {
+    const TraceRow& last = rows[rows.size() - 3 + m];
+    const PoseError e = poseError(last.T_estimate, last.T_true);
+    EXPECT_NEAR(e.rot_deg, r.rows[m].final_rot_err_deg, 1e-9) << last.method;
+    EXPECT_NEAR(e.trans_cm, r.rows[m].final_trans_err_cm, 1e-9) << last.method;
+    // The line's rotation error is that angle, to its 3 decimals.
+    TraceRow row = last;
+    row.result = &results[results.size() - 3 + m];
+    const std::string line = traceLine(row);
+    std::size_t field = 0, start = 0;
+    for (; field < 5; ++field) start = line.find(',', start) + 1;
+    EXPECT_NEAR(std::stod(line.substr(start)), e.rot_deg, 1e-3);
+  }
 }
 
 TEST(EvalStatic, StopsCleanlyWithPartialResults) {
@@ -235,7 +281,8 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   EXPECT_LT(doc.at("rows").at(0).at("trans_err_cm").number(), 0.6);
   std::remove(json.c_str());
   for (const std::string bad : {" static --methods icp", " static --part teapot", " static --trials 0",
-                                " static --mesh x.stl", " static --set icp.nothing=1", " frobnicate"}) {
+                                " static --mesh x.stl", " static --set icp.nothing=1", " frobnicate",
+                                " speed --trace /dev/null"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }

@@ -12,19 +12,39 @@
 #include "depowder/eval/json.hpp"
 #include "depowder/eval/scene.hpp"
 #include "depowder/tracker/config.hpp"
+#include "depowder/tracker/part_tracker.hpp"
 
 namespace depowder::eval {
 
 /// Interruption and progress: `stop` is polled every frame (a trial cut short is dropped, the
 /// finished ones are kept); `progress` is told the work done so far, in the experiment's units.
+/// One tracked frame of one method (--trace): the estimate against the truth.
+struct TraceRow {
+  std::string experiment, part, method;
+  int trial = 0, frame = 0;
+  Pose T_true = Pose::Identity(), T_estimate = Pose::Identity();
+  Pose T_start = Pose::Identity();  ///< the part's true pose at the trial's start
+  const tracker::TrackResult* result = nullptr;
+};
+
 struct RunControl {
   std::function<bool()> stop;
   std::function<void(double done, double total, const std::string& what)> progress;
+  std::function<void(const TraceRow&)> trace;  ///< every tracked frame, if set
   bool stopped() const { return stop && stop(); }
   void tell(double done, double total, const std::string& what) const {
     if (progress) progress(done, total, what);
   }
+  void record(const TraceRow& row) const {
+    if (trace) trace(row);
+  }
 };
+
+/// The CSV header of --trace and one row of it. The error is the estimate in the true part
+/// frame (T_true^-1 T_estimate): its rotation vector (deg) and translation (mm) along the
+/// part's own axes, so a spin about the part's axis or a roll shows as such.
+std::string traceHeader();
+std::string traceLine(const TraceRow& row);
 
 struct StaticOptions {
   std::vector<double> visibilities{0.2, 0.4, 0.6, 0.8, 1.0};  ///< eta set by World::digToVisibility
