@@ -68,7 +68,8 @@ std::string traceHeader() {
 }
 
 std::string traceLine(const TraceRow& row) {
-  const Pose E = row.T_true.inverse(Eigen::Isometry) * row.T_estimate;
+  const tracker::TrackResult& r = *row.result;
+  const Pose E = row.T_true.inverse(Eigen::Isometry) * r.T_cell_part;
   const Eigen::AngleAxisd aa(E.linear());
   const Eigen::Vector3d w = aa.angle() * 180.0 / M_PI * aa.axis();
   const Eigen::Vector3d t = 1000.0 * E.translation();
@@ -79,15 +80,9 @@ std::string traceLine(const TraceRow& row) {
                 w.y(), w.z(), t.x(), t.y(), t.z(), 1000.0 * M.translation().norm(),
                 Eigen::AngleAxisd(M.linear()).angle() * 180.0 / M_PI);
   std::string line = buf;
-  if (const tracker::TrackResult* r = row.result) {
-    std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d,%d", tracker::toString(r->status), r->iterations,
-                  r->inlier_ratio, 1000.0 * r->fitness, r->eta, r->template_updated ? 1 : 0, r->held ? 1 : 0,
-                  r->refit ? 1 : 0);
-    line += buf;
-  } else {
-    line += ",,,,,,,,";
-  }
-  return line;
+  std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d,%d", tracker::toString(r.status), r.iterations,
+                r.inlier_ratio, 1000.0 * r.fitness, r.eta, r.template_updated ? 1 : 0, r.held ? 1 : 0, r.refit ? 1 : 0);
+  return line + buf;
 }
 
 }  // namespace depowder::eval

@@ -112,7 +112,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         for (std::size_t m = 0; m < methods.size(); ++m) {
           const tracker::TrackResult tr = trackers[m].track(scan);
           last[m] = tr.T_cell_part;
-          control.record({"moving", part.name, tracker::toString(methods[m]), trial, f, T_true, tr.T_cell_part, T0, &tr});
+          control.record({"moving", part.name, tracker::toString(methods[m]), trial, f, T_true, T0, &tr});
         }
         done += 1;
         control.tell(done, total,

@@ -22,9 +22,9 @@ namespace depowder::eval {
 struct TraceRow {
   std::string experiment, part, method;
   int trial = 0, frame = 0;
-  Pose T_true = Pose::Identity(), T_estimate = Pose::Identity();
-  Pose T_start = Pose::Identity();  ///< the part's true pose at the trial's start
-  const tracker::TrackResult* result = nullptr;
+  Pose T_true = Pose::Identity();
+  Pose T_start = Pose::Identity();               ///< the part's true pose at the trial's start
+  const tracker::TrackResult* result = nullptr;  ///< the frame's (never null in a trace)
 };
 
 struct RunControl {
@@ -41,7 +41,7 @@ struct RunControl {
 };
 
 /// The CSV header of --trace and one row of it. The error is the estimate in the true part
-/// frame (T_true^-1 T_estimate): its rotation vector (deg) and translation (mm) along the
+/// frame (T_true^-1 result->T_cell_part): its rotation vector (deg) and translation (mm) along the
 /// part's own axes, so a spin about the part's axis or a roll shows as such.
 std::string traceHeader();
 std::string traceLine(const TraceRow& row);
