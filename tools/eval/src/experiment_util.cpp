@@ -69,16 +69,15 @@ std::string traceHeader() {
 
 std::string traceLine(const TraceRow& row) {
   const tracker::TrackResult& r = *row.result;
-  const Pose E = row.T_true.inverse(Eigen::Isometry) * r.T_cell_part;
+  const PoseError e = poseError(r.T_cell_part, row.T_true), moved = poseError(row.T_true, row.T_start);
+  const Pose E = row.T_true.inverse(Eigen::Isometry) * r.T_cell_part;  // the error along the part's own axes
   const Eigen::AngleAxisd aa(E.linear());
   const Eigen::Vector3d w = aa.angle() * 180.0 / M_PI * aa.axis();
   const Eigen::Vector3d t = 1000.0 * E.translation();
-  const Pose M = row.T_start.inverse(Eigen::Isometry) * row.T_true;
   char buf[512];
   std::snprintf(buf, sizeof buf, "%s,%s,%s,%d,%d,%.3f,%.2f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.3f", row.experiment.c_str(),
-                row.part.c_str(), row.method.c_str(), row.trial, row.frame, aa.angle() * 180.0 / M_PI, t.norm(), w.x(),
-                w.y(), w.z(), t.x(), t.y(), t.z(), 1000.0 * M.translation().norm(),
-                Eigen::AngleAxisd(M.linear()).angle() * 180.0 / M_PI);
+                row.part.c_str(), row.method.c_str(), row.trial, row.frame, e.rot_deg, 10.0 * e.trans_cm, w.x(), w.y(),
+                w.z(), t.x(), t.y(), t.z(), 10.0 * moved.trans_cm, moved.rot_deg);
   std::string line = buf;
   std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d,%d", tracker::toString(r.status), r.iterations,
                 r.inlier_ratio, 1000.0 * r.fitness, r.eta, r.template_updated ? 1 : 0, r.held ? 1 : 0, r.refit ? 1 : 0);
