@@ -27,7 +27,7 @@ int usage(const std::string& error = "") {
   std::cerr << "usage: depowder-retrack RUN.lcmlog --cell CELL.yaml [--set tracker.KEY=VALUE]... [--every S]\n"
                "                        [--from S] [--to S] [--prefix P]\n"
                "  Tracks the log's POINTS frames with the cell's tracker settings (--set changes one, as\n"
-               "  depowder-eval's --set: icp.point_weight=1) and prints, every S seconds of the run\n"
+               "  depowder-eval's --set: icp.tangent_weight=0) and prints, every S seconds of the run\n"
                "  (default 5; 0: every frame), each part's status and its error against SIM_TRUTH (with the\n"
                "  error's rotation axis in the part frame), the fit's inlier ratio and RMS, P_cad against\n"
                "  the cameras' lines of sight (sight seen/in front/hidden samples) and REFIT when the refit\n"

@@ -90,7 +90,7 @@ const char* kUsage =
     "                    static parts as in the paper's Table I)\n"
     "  --seed N          random seed (default 1)\n"
     "  --set key=value   override a tracker config field for every method, e.g.\n"
-    "                    --set icp.motion_prior=0.3 (unknown keys list the known ones)\n"
+    "                    --set icp.tangent_weight=0 (unknown keys list the known ones)\n"
     "  --no-cull         do not tell the trackers where the cameras are (no back-face culling)\n"
     "  --json FILE       also write the summary as JSON\n";
 

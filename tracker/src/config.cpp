@@ -49,10 +49,15 @@ std::string validate(const TrackerConfig& c) {
   if (!nonNegative(c.icp.convergence_translation)) return "icp.convergence_translation must be >= 0 m";
   if (!nonNegative(c.icp.convergence_rotation)) return "icp.convergence_rotation must be >= 0 rad";
   if (!nonNegative(c.icp.kernel_scale)) return "icp.kernel_scale must be >= 0 m";
-  if (!nonNegative(c.icp.motion_prior)) return "icp.motion_prior must be >= 0";
-  if (!fraction(c.icp.weak_direction)) return "icp.weak_direction must be in [0, 1]";
-  if (!nonNegative(c.icp.hold_chi2)) return "icp.hold_chi2 must be >= 0";
-  if (!fraction(c.icp.point_weight)) return "icp.point_weight must be in [0, 1]";
+  if (!(std::isfinite(c.icp.normal_min_cos) && c.icp.normal_min_cos >= -1 && c.icp.normal_min_cos <= 1))
+    return "icp.normal_min_cos must be in [-1, 1]";
+  if (!positive(c.icp.normal_radius) || c.icp.normal_radius > 0.1) return "icp.normal_radius must be in (0, 0.1] m";
+  if (!fraction(c.icp.tangent_weight)) return "icp.tangent_weight must be in [0, 1]";
+  if (!fraction(c.icp.scan_weight)) return "icp.scan_weight must be in [0, 1]";
+  if (!nonNegative(c.visibility.powder_radius) || c.visibility.powder_radius > 0.2)
+    return "visibility.powder_radius must be in [0, 0.2] m (0 = no powder test)";
+  if (!std::isfinite(c.visibility.powder_margin) || std::abs(c.visibility.powder_margin) > 0.05)
+    return "visibility.powder_margin must be in [-0.05, 0.05] m";
   if (!(std::isfinite(c.filter.data_inflation) && c.filter.data_inflation >= 0))
     return "filter.data_inflation must be >= 0 (0 = off)";
   if (!positive(c.filter.q_yaw_deg) || !positive(c.filter.q_tilt_deg) || !positive(c.filter.q_xy) ||
@@ -87,10 +92,12 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"icp.convergence_translation", &c.icp.convergence_translation},
                                               {"icp.convergence_rotation", &c.icp.convergence_rotation},
                                               {"icp.kernel_scale", &c.icp.kernel_scale},
-                                              {"icp.motion_prior", &c.icp.motion_prior},
-                                              {"icp.weak_direction", &c.icp.weak_direction},
-                                              {"icp.hold_chi2", &c.icp.hold_chi2},
-                                              {"icp.point_weight", &c.icp.point_weight},
+                                              {"icp.normal_min_cos", &c.icp.normal_min_cos},
+                                              {"icp.normal_radius", &c.icp.normal_radius},
+                                              {"icp.tangent_weight", &c.icp.tangent_weight},
+                                              {"icp.scan_weight", &c.icp.scan_weight},
+                                              {"visibility.powder_radius", &c.visibility.powder_radius},
+                                              {"visibility.powder_margin", &c.visibility.powder_margin},
                                               {"icp.max_step_rotation", &c.icp.max_step_rotation},
                                               {"filter.data_inflation", &c.filter.data_inflation},
                                               {"filter.q_yaw_deg", &c.filter.q_yaw_deg},

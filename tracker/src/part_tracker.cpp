@@ -64,18 +64,21 @@ void PartTracker::resetInformation() {
   information_.diagonal() << Eigen::Vector3d::Constant(1 / (r * r)), Eigen::Vector3d::Constant(1 / (t * t));
 }
 
-// The filter's prediction for the next frame: the part stays where it was, less sure by the
-// process noise, which is set in the cell frame (tips seldom, slides) and taken into the part frame.
-Eigen::Matrix<double, 6, 6> PartTracker::predictedInformation() const {
+// The filter's prediction for this frame: the part stays where it was, less sure by the process
+// noise (cell axes: it turns about the vertical and slides, it seldom tips or sinks).
+PosePrior PartTracker::predicted() const {
   const FilterConfig& f = config_.filter;
   const double yaw = f.q_yaw_deg * M_PI / 180, tilt = f.q_tilt_deg * M_PI / 180;
-  const Eigen::Matrix3d R = T_cell_part_.linear();
-  Eigen::Matrix<double, 6, 6> covariance = information_.inverse();
-  covariance.topLeftCorner<3, 3>() += R.transpose() * Eigen::Vector3d(tilt * tilt, tilt * tilt, yaw * yaw).asDiagonal() * R;
-  covariance.bottomRightCorner<3, 3>() +=
-      R.transpose() * Eigen::Vector3d(f.q_xy * f.q_xy, f.q_xy * f.q_xy, f.q_z * f.q_z).asDiagonal() * R;
-  const Eigen::Matrix<double, 6, 6> predicted = covariance.inverse();
-  return 0.5 * (predicted + predicted.transpose());
+  Vector6d q;
+  q << tilt * tilt, tilt * tilt, yaw * yaw, f.q_xy * f.q_xy, f.q_xy * f.q_xy, f.q_z * f.q_z;
+  Matrix6d covariance = information_.inverse();
+  covariance.diagonal() += q;
+  PosePrior prior;
+  prior.T_cell_part = T_cell_part_;
+  prior.information = covariance.inverse();
+  prior.information = 0.5 * (prior.information + prior.information.transpose());
+  prior.inflation = f.data_inflation;
+  return prior;
 }
 
 double PartTracker::correspondenceDistance() const {
@@ -86,6 +89,9 @@ double PartTracker::estimateEta(const Pose& T_cell_part, const Cloud& scan, std:
   // Alg. 1, line 11: eta_i from P_cad . T_i and P_i, with the Eq. 2 code the progress process runs
   // (without the contour, which only the planner needs).
   const progress::ProgressEstimate e = eta_estimator_.estimate(T_cell_part, scan);
+  // The band's powder also tells the next frame which template points are under the powder.
+  if (e.status == progress::Status::kOk && config_.visibility.powder_radius > 0)
+    powder_ = PowderHeights(e.band, e.h_pow, config_.visibility.powder_radius);
   if (e.status != progress::Status::kOk) {
     if (why) *why = std::string("progress unavailable (") + progress::toString(e.status) + ": " + e.reason + ")";
     return std::nan("");
@@ -127,7 +133,8 @@ int PartTracker::sightScore(const Pose& T_cell_part, const SightImages& images, 
   return near - 2 * c.in_front;
 }
 
-bool PartTracker::refit(const SightImages& images, const ScanIndex& grid, double max_distance) {
+bool PartTracker::refit(const SightImages& images, const Surface& scan, double max_distance) {
+  const ScanIndex& grid = scan.index;
   const int tracked = sightScore(T_cell_part_, images, grid);  // fills verdict_ at the tracked pose
   // The source: the samples the cameras should see at the tracked pose (on the scanned surface
   // or in front of it), not those behind powder.
@@ -139,17 +146,15 @@ bool PartTracker::refit(const SightImages& images, const ScanIndex& grid, double
       refit_normals_.push_back(cad_sparse_normals_[i]);
     }
   if (refit_points_.size() < static_cast<std::size_t>(config_.icp.min_correspondences)) return false;
-  IcpConfig one_off = config_.icp;
-  one_off.motion_prior = 0;
-  one_off.hold_chi2 = 0;
+  const ScanIndex refit_index(refit_points_, max_distance);
   const RegistrationResult reg =
-      registerPointToPlane(refit_points_, refit_normals_, grid, T_cell_part_, max_distance, one_off);
+      registerSurfaces({refit_points_, refit_normals_, refit_index}, scan, T_cell_part_, max_distance, config_.icp);
   if (!reg.ok() || !isValidPose(reg.T_target_source, 1e-6)) return false;
   const int refitted = sightScore(reg.T_target_source, images, grid);
   if (refitted <= tracked + config_.refit_margin * static_cast<double>(cad_sparse_points_.size())) return false;
   if (rotationDistanceDeg(reg.T_target_source, T_cell_part_) < config_.refit_min_rotation_deg &&
       translationDistance(reg.T_target_source, T_cell_part_) < xi_)
-    return false;  // a small correction is ICP's business (its prior and hold weigh it against the noise)
+    return false;  // a small correction is ICP's business (its filter weighs it against the noise)
   T_cell_part_ = reg.T_target_source;
   return true;
 }
@@ -220,21 +225,19 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   }
 
   // Alg. 1, lines 8-9: ICP(P_tmpl, P_i) with T_{i-1} as the prior. Registering the part-frame
-  // template from T_{i-1} gives T_i = T_{i,i-1} x T_{i-1} directly.
+  // template from T_{i-1} gives T_i = T_{i,i-1} x T_{i-1} directly. ICP uses the template points
+  // the cameras can see now: facing one of them, not under the powder around the part.
   t0 = Clock::now();
-  const Cloud* src = &icp_points_;
-  const Cloud* src_n = &icp_normals_;
-  if (!viewpoints.empty()) {
-    // Template points whose outward normal faces away from every camera cannot be in the scan
-    // (the underside of a blade); they would only match powder or the far wall.
-    facing(icp_points_, icp_normals_, T_cell_part_, viewpoints, visible_points_, visible_normals_);
-    src = &visible_points_;
-    src_n = &visible_normals_;
-  }
+  crop_normals_ = scanNormals(grid, viewpoints, config_.icp.normal_radius);
+  visibleTemplate(icp_points_, icp_normals_, T_cell_part_, viewpoints, powder_, config_.visibility.powder_margin,
+                  visible_points_, visible_normals_);
+  if (visible_points_.empty()) return finish(refuse(r, "no template point faces a camera above the powder"));
+  const ScanIndex model_index(visible_points_, max_distance);
+  const Surface scan_surface{crop_, crop_normals_, grid};
   const bool filter = config_.filter.data_inflation > 0;
-  const Eigen::Matrix<double, 6, 6> predicted = filter ? predictedInformation() : Eigen::Matrix<double, 6, 6>::Zero();
-  const RegistrationResult reg = registerPointToPlane(*src, *src_n, grid, T_cell_part_, max_distance, config_.icp,
-                                                      filter ? &predicted : nullptr);
+  const PosePrior prior = filter ? predicted() : PosePrior{};
+  const RegistrationResult reg = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
+                                                  T_cell_part_, max_distance, config_.icp, filter ? &prior : nullptr);
   r.timing.icp_ms = msSince(t0);
   r.iterations = reg.iterations;
   r.fitness = reg.rms;
@@ -251,8 +254,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     return finish(refuse(
         r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
   T_cell_part_ = reg.T_target_source;
-  if (filter) information_ = predicted + reg.information / config_.filter.data_inflation;  // the update
-  r.held = reg.held;
+  if (filter) information_ = prior.information + reg.information / config_.filter.data_inflation;  // the update
   r.T_cell_part = T_cell_part_;
   r.status = TrackStatus::kTracking;
   if (reg.inlier_ratio < s.tracking_min_inlier_ratio) {
@@ -263,12 +265,11 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     r.reason = "residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.tracking_max_rms * 1000, 1) + " mm";
   }
 
-  // Not in the paper: the refit (sight.hpp). The motion prior and the hold keep a still part's
-  // weakly seen motions at the last pose; after a fast motion (a fall) they can keep a wrong one,
-  // and a template derived there lacks the points that would correct it. So the whole CAD model
-  // is judged against the cameras' lines of sight, fitted once more from the points the cameras
-  // should see without the prior and the hold, and that fit replaces ICP's when it explains the
-  // scan better by refit_margin.
+  // Not in the paper: the refit (sight.hpp). The filter keeps a still part's weakly seen motions
+  // at the last pose; after a fast motion (a fall) it can keep a wrong one, and a template derived
+  // there lacks the points that would correct it. So the whole CAD model is judged against the
+  // cameras' lines of sight, fitted once more from the points the cameras should see without the
+  // filter, and that fit replaces ICP's when it explains the scan better by refit_margin.
   bool refitted = false;
   if (!viewpoints.empty() && config_.refit_margin > 0 && eta_ >= config_.refit_min_eta) {
     t0 = Clock::now();
@@ -278,11 +279,10 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     region.min().array() -= config_.crop_margin;
     region.max().array() += config_.crop_margin;
     const SightImages images(scan, viewpoints, region);
-    if (refit(images, grid, max_distance)) {
+    if (refit(images, scan_surface, max_distance)) {
       resetInformation();  // what the filter knew was about the wrong pose
       refitted = true;
       r.refit = true;
-      r.held = false;
       r.T_cell_part = T_cell_part_;
     }
     placeSparse(T_cell_part_);

@@ -5,7 +5,6 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <vector>
 
 #include "format.hpp"
@@ -35,19 +34,45 @@ Eigen::Matrix3d orthonormalized(const Eigen::Matrix3d& R) {
   return svd.matrixU() * D * svd.matrixV().transpose();
 }
 
+Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, double radius) {
+  const Cloud& points = index.points();
+  Cloud normals(points.size(), Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d sum2 = Eigen::Matrix3d::Zero();
+    int n = 0;
+    index.forEachWithin(points[i], radius, [&](int j, double) {
+      sum += points[j];
+      sum2.noalias() += points[j] * points[j].transpose();
+      ++n;
+    });
+    if (n < 4) continue;
+    const Eigen::Vector3d mean = sum / n;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(sum2 / n - mean * mean.transpose());
+    const Eigen::Vector3d axis = eig.eigenvectors().col(0);
+    // A surface faces the camera that saw it; of the two signs, the one facing a viewpoint most
+    // squarely.
+    double facing = viewpoints.empty() ? axis.z() : 0.0;
+    for (const Point& eye : viewpoints) {
+      const double c = axis.dot((eye - points[i]).normalized());
+      if (std::abs(c) > std::abs(facing)) facing = c;
+    }
+    normals[i] = facing >= 0 ? axis : Eigen::Vector3d(-axis);
+  }
+  return normals;
+}
+
 namespace {
 
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
-using Vector6d = Eigen::Matrix<double, 6, 1>;
-
-// The normal equations of one association round (KISS-ICP's BuildLinearSystem).
+// The normal equations of one association round (KISS-ICP's BuildLinearSystem), in the update's
+// coordinates: a rotation vector about the part's origin and a translation, both in cell axes.
 struct LinearSystem {
   Matrix6d H = Matrix6d::Zero();
   Vector6d g = Vector6d::Zero();
-  int matches = 0;
-  double sum_w = 0;    ///< robust weights: the matches' worth
-  double sum_r2 = 0;   ///< unweighted, for the RMS
-  double sum_wr2 = 0;  ///< weighted, for the noise level of the hold test
+  int matches = 0;       ///< template points matched
+  int scan_matches = 0;  ///< scan points matched
+  double sum_w = 0, sum_wr2 = 0;
+  double sum_r2 = 0;  ///< template matches' point-to-plane residuals, unweighted (RMS)
 };
 
 // Geman-McClure weight of a residual r (m) with scale s2 = scale^2; 1 without a kernel.
@@ -57,82 +82,84 @@ double robustWeight(double r, double s2) {
   return k * k;
 }
 
-// Data association + linearisation at T_target_source. The residual of a match (p, n) <-> q is
-// the distance of q, taken into the source frame, to the tangent plane of p:
-//   r = n . (T^-1 q - p).
-// The update perturbs the inverse pose, T^-1 <- exp(delta) T^-1 with delta = (omega, v), so
-//   dr/domega = (T^-1 q) x n,  dr/dv = n;
-// the CAD normals stay fixed in the part frame and Gauss-Newton is exact for this cost.
-LinearSystem buildLinearSystem(const Cloud& source, const Cloud& normals, const ScanIndex& target, const Pose& T,
-                               double max_distance, double s2, double point_weight, std::vector<double>& abs_r) {
+// Association both ways at pose T (Alg. 1, line 8's data term) and linearisation. A match pairs a
+// template point p (cell frame, unit normal n) with a scan point q; residual r = dir . (p - q)
+// for dir = n (and the tangents), dr/domega = (p - t) x dir, dr/dv = dir.
+LinearSystem buildLinearSystem(const Surface& model, const Surface& scan, const Pose& T, double max_distance, double s2,
+                               const IcpConfig& config, std::vector<double>& abs_r) {
   LinearSystem sys;
   abs_r.clear();
-  const Pose T_inv = T.inverse(Eigen::Isometry);
   const Eigen::Matrix3d R = T.linear();
   const Eigen::Vector3d t = T.translation();
-  const Eigen::Matrix3d Ri = T_inv.linear();
-  const Eigen::Vector3d ti = T_inv.translation();
   Vector6d J;
-  for (std::size_t i = 0; i < source.size(); ++i) {
-    const Eigen::Vector3d p_target = R * source[i] + t;
-    const ScanIndex::Hit hit = target.nearest(p_target, max_distance);
-    if (!hit.found()) continue;
-    const Eigen::Vector3d q = Ri * target.point(hit.index) + ti;  // scan point in the source frame
-    const Eigen::Vector3d& n = normals[i];
-    const double r = n.dot(q - source[i]);
-    J.head<3>() = q.cross(n);
-    J.tail<3>() = n;
-    const double w = robustWeight(r, s2);
+  auto add = [&](const Point& p, const Eigen::Vector3d& dir, const Point& q, double weight) {
+    const double r = dir.dot(p - q);
+    J.head<3>() = (p - t).cross(dir);
+    J.tail<3>() = dir;
+    const double w = weight * robustWeight(r, s2);
     sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
     sys.g.noalias() += (w * r) * J;
-    if (point_weight > 0) {
-      // The offset along the tangent plane too, point_weight of a normal residual's worth
-      // (1: point-to-point, the authors' metric).
-      const Eigen::Vector3d d = q - source[i];
+    sys.sum_w += w;
+    sys.sum_wr2 += w * r * r;
+    return r;
+  };
+  // Template -> scan: each template point's nearest scan point with an agreeing normal.
+  for (std::size_t i = 0; i < model.points.size(); ++i) {
+    const Point p = R * model.points[i] + t;
+    const Eigen::Vector3d n = R * model.normals[i];
+    const ScanIndex::Hit hit =
+        scan.index.nearest(p, max_distance, [&](int j) { return n.dot(scan.normals[j]) >= config.normal_min_cos; });
+    if (!hit.found()) continue;
+    const Point& q = scan.points[hit.index];
+    const double r = add(p, n, q, 1.0);
+    if (config.tangent_weight > 0) {
+      // The offset along the tangent plane too (tangent_weight 1: point-to-point, the authors' metric).
       const Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
       const Eigen::Vector3d t1 = n.cross(a).normalized();
-      const Eigen::Vector3d t2 = n.cross(t1);
-      for (const Eigen::Vector3d& tangent : {t1, t2}) {
-        const double rt = tangent.dot(d);
-        J.head<3>() = q.cross(tangent);
-        J.tail<3>() = tangent;
-        const double wt = point_weight * robustWeight(rt, s2);
-        sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, wt);
-        sys.g.noalias() += (wt * rt) * J;
-      }
+      add(p, t1, q, config.tangent_weight);
+      add(p, n.cross(t1), q, config.tangent_weight);
     }
     sys.sum_r2 += r * r;
-    sys.sum_wr2 += w * r * r;
     abs_r.push_back(std::abs(r));
-    sys.sum_w += w;
     ++sys.matches;
+  }
+  // Scan -> template: each scan point's nearest template point with an agreeing normal, searched
+  // in the part frame.
+  if (config.scan_weight > 0) {
+    const Eigen::Matrix3d Rt = R.transpose();
+    for (std::size_t j = 0; j < scan.points.size(); ++j) {
+      const Point& q = scan.points[j];
+      const Eigen::Vector3d ns = Rt * scan.normals[j];
+      const ScanIndex::Hit hit = model.index.nearest(
+          Rt * (q - t), max_distance, [&](int i) { return model.normals[i].dot(ns) >= config.normal_min_cos; });
+      if (!hit.found()) continue;
+      const double r = add(R * model.points[hit.index] + t, R * model.normals[hit.index], q, config.scan_weight);
+      abs_r.push_back(std::abs(r));
+      ++sys.scan_matches;
+    }
   }
   sys.H.triangularView<Eigen::StrictlyLower>() = sys.H.transpose();
   return sys;
 }
 
-// Robust-weighted residual variance of a round's matches (m^2), never below (0.1 mm)^2: a
-// noise-free synthetic fit must not claim infinite information.
+// Robust-weighted residual variance (m^2), never below (0.1 mm)^2: a noise-free synthetic fit
+// must not claim infinite information.
 double residualVariance(const LinearSystem& sys) {
   return std::max(sys.sum_w > 0 ? sys.sum_wr2 / sys.sum_w : 0.0, 1e-8);
 }
 
-// exp(delta) to first order in the translation (the increments are small): rotation by
-// angle-axis omega, then translation v.
-Pose increment(const Vector6d& delta) {
-  Pose inc = Pose::Identity();
-  const Eigen::Vector3d omega = delta.head<3>();
-  const double angle = omega.norm();
-  if (angle > 0) inc.linear() = Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix();
-  inc.translation() = delta.tail<3>();
-  return inc;
+// The deviation of T from the prior's pose, in PosePrior's coordinates.
+Vector6d deviation(const Pose& T, const Pose& T_prior) {
+  const Eigen::AngleAxisd aa(T.linear() * T_prior.linear().transpose());
+  Vector6d e;
+  e << aa.angle() * aa.axis(), T.translation() - T_prior.translation();
+  return e;
 }
 
 }  // namespace
 
-RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
-                                        const Pose& guess, double max_distance, const IcpConfig& config,
-                                        const Matrix6d* prior) {
+RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, const Pose& guess, double max_distance,
+                                    const IcpConfig& config, const PosePrior* prior) {
   RegistrationResult result;
   const bool guess_ok = guess.matrix().allFinite() && isValidPose(guess, 1e-4);
   if (guess_ok) {
@@ -145,47 +172,35 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
     return result;
   };
   if (!guess_ok) return invalid("initial guess is not a finite rigid transform");
-  if (source.empty()) return invalid("source (template) is empty");
-  if (source_normals.size() != source.size())
-    return invalid("source has " + std::to_string(source.size()) + " points but " +
-                   std::to_string(source_normals.size()) + " normals");
-  if (target.size() == 0) return invalid("target (scan) is empty");
+  if (model.points.empty()) return invalid("source (template) is empty");
+  if (model.normals.size() != model.points.size() || model.index.size() != model.points.size())
+    return invalid("source has " + std::to_string(model.points.size()) + " points but " +
+                   std::to_string(model.normals.size()) + " normals and " + std::to_string(model.index.size()) +
+                   " indexed");
+  if (scan.points.empty()) return invalid("target (scan) is empty");
+  if (scan.normals.size() != scan.points.size() || scan.index.size() != scan.points.size())
+    return invalid("target has " + std::to_string(scan.points.size()) + " points but " +
+                   std::to_string(scan.normals.size()) + " normals and " + std::to_string(scan.index.size()) +
+                   " indexed");
   if (!(std::isfinite(max_distance) && max_distance > 0)) return invalid("max correspondence distance must be > 0");
   if (config.max_iterations < 1) return invalid("max_iterations must be >= 1");
+  if (prior && !(prior->information.allFinite() && isValidPose(prior->T_cell_part, 1e-4) && prior->inflation > 0))
+    return invalid("the prior is not finite");
 
   // Kernel scale: wide while the template is still far off (a part that moved 5 mm must not be
   // refused), then 3 robust sigmas of the last round's residuals, never below config.kernel_scale.
   double scale = config.kernel_scale > 0 ? std::max(config.kernel_scale, max_distance / 3) : 0.0;
   std::vector<double> abs_r;
-  abs_r.reserve(source.size());
-  // Characteristic length of the source: rotations about its frame's origin move points by about this.
-  double length2 = 0;
-  for (const Point& p : source) length2 += p.squaredNorm();
-  const double length = std::max(std::sqrt(length2 / source.size()), 1e-3);
-  Vector6d S;  // delta = S u
-  S << Eigen::Vector3d::Constant(1.0 / length), Eigen::Vector3d::Ones();
-  const Pose guess_o = result.T_target_source;  // the guess, orthonormalised
+  abs_r.reserve(model.points.size() + scan.points.size());
   Pose T = result.T_target_source;
-  // The estimate's deviation from the guess, e = S^-1 log(T^-1 guess): zero at the start.
-  auto deviation = [&](const Pose& T_now) {
-    const Pose E = T_now.inverse(Eigen::Isometry) * guess_o;
-    const Eigen::AngleAxisd aa(E.linear());
-    Vector6d e;
-    e << length * aa.angle() * aa.axis(), E.translation();
-    return e;
-  };
-  Eigen::SelfAdjointEigenSolver<Matrix6d> eig;                     // of the scaled H, for the weak directions
-  double weak_sum_w = 0;                                           // the matches' worth when eig was computed
-  Vector6d weak_e = Vector6d::Zero(), weak_gs = Vector6d::Zero();  // the deviation and the scan's gradient then
   result.status = RegistrationStatus::kMaxIterations;
   LinearSystem sys;
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
-    // Associate and linearise at the current estimate.
-    sys = buildLinearSystem(source, source_normals, target, T, max_distance, scale * scale, config.point_weight, abs_r);
+    sys = buildLinearSystem(model, scan, T, max_distance, scale * scale, config, abs_r);
     result.iterations = iteration;
-    result.weak_directions = 0;
     result.correspondences = sys.matches;
-    result.inlier_ratio = static_cast<double>(sys.matches) / static_cast<double>(source.size());
+    result.scan_matches = sys.scan_matches;
+    result.inlier_ratio = static_cast<double>(sys.matches) / static_cast<double>(model.points.size());
     result.rms = sys.matches > 0 ? std::sqrt(sys.sum_r2 / sys.matches) : 0.0;
     if (sys.matches < std::max(config.min_correspondences, 6)) {
       result.status = RegistrationStatus::kTooFewCorrespondences;
@@ -196,46 +211,22 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
       result.T_target_source.linear() = orthonormalized(guess.linear());
       return result;
     }
-    // Solve in the directions the matches constrain; then a trust region: no step may move
-    // the template further than the association can follow.
     if (config.kernel_scale > 0 && !abs_r.empty()) {
       std::nth_element(abs_r.begin(), abs_r.begin() + abs_r.size() / 2, abs_r.end());
       scale = std::max(config.kernel_scale, 3 * 1.4826 * abs_r[abs_r.size() / 2]);
     }
-    // Solve in scaled coordinates u (rotations times `length`: all six are displacements, and an
-    // eigenvalue of the scaled H counts matched points' worth of constraint), with a motion prior
-    // mu |e + u|^2 towards the guess along the weakly constrained eigen-directions only (below
-    // config.weak_direction of the matches): a tube's spin or a plane's slide stays at the guess
-    // instead of turning with the noise, while well-constrained directions follow the scan with
-    // no lag. e is the estimate's deviation from the guess so far (Zhang et al., ICRA 2016, for
-    // the degeneracy; a soft prior instead of their hard cut).
-    const Matrix6d Hs = S.asDiagonal() * sys.H * S.asDiagonal();
-    Vector6d gs = S.asDiagonal() * sys.g;
-    Matrix6d A = Hs;
-    if (prior != nullptr) {
-      // The filter's information about the deviation from the guess, in the residuals' units:
-      // min sum w r^2 / variance + d' P d, with d = S e.
-      const double variance = residualVariance(sys);
-      const Matrix6d P = variance * S.asDiagonal() * (*prior) * S.asDiagonal();
-      A += P;
-      gs.noalias() += P * deviation(T);
-    } else if (config.motion_prior > 0 || config.hold_chi2 > 0) {
-      const Vector6d e = deviation(T);
-      eig.compute(Hs);
-      weak_sum_w = sys.sum_w;
-      weak_e = e;
-      weak_gs = gs;
-      const double mu = config.motion_prior * sys.sum_w;
-      for (int k = 0; k < 6; ++k) {
-        if (eig.eigenvalues()[k] >= config.weak_direction * sys.sum_w) continue;
-        const Vector6d v = eig.eigenvectors().col(k);
-        A.noalias() += mu * v * v.transpose();
-        gs.noalias() += (mu * v.dot(e)) * v;
-        ++result.weak_directions;
-      }
+    // Gauss-Newton step; with a prior, the cost is the residuals over their variance (inflated)
+    // plus the deviation from the prior's pose in its information.
+    Matrix6d A = sys.H;
+    Vector6d g = sys.g;
+    if (prior) {
+      const double data = 1.0 / (residualVariance(sys) * prior->inflation);
+      A = data * sys.H + prior->information;
+      g = data * sys.g + prior->information * deviation(T, prior->T_cell_part);
     }
     A.diagonal().array() += 1e-12 * std::max(A.diagonal().maxCoeff(), 1e-300);  // numerical floor
-    Vector6d delta = S.asDiagonal() * (-A.ldlt().solve(gs));
+    Vector6d delta = -A.ldlt().solve(g);
+    // A trust region: no step may move the template further than the association can follow.
     delta /= std::max(
         {1.0, delta.tail<3>().norm() / (0.5 * max_distance), delta.head<3>().norm() / config.max_step_rotation});
     if (!delta.allFinite()) {
@@ -245,53 +236,29 @@ RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source
       result.T_target_source.linear() = orthonormalized(guess.linear());
       return result;
     }
-    // T^-1 <- exp(delta) T^-1, i.e. T <- T exp(delta)^-1.
-    T = T * increment(delta).inverse(Eigen::Isometry);
-    if (delta.tail<3>().norm() < config.convergence_translation &&
-        delta.head<3>().norm() < config.convergence_rotation) {
+    const Eigen::Vector3d omega = delta.head<3>();
+    if (omega.norm() > 0) T.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()) * T.linear();
+    T.translation() += delta.tail<3>();
+    if (delta.tail<3>().norm() < config.convergence_translation && omega.norm() < config.convergence_rotation) {
       result.status = RegistrationStatus::kConverged;
       break;
     }
   }
   T.linear() = orthonormalized(T.linear());
   result.T_target_source = T;
-  if (sys.matches > 0) result.information = sys.H / residualVariance(sys);
-  // The hold: along the weak directions the scan would move the estimate (the least-squares
-  // optimum there, without the prior) by no more than its noise would: the weighted squared
-  // residuals would fall by less than hold_chi2 variances (about chi-square for a part that
-  // stayed still). Then the estimate stays at the guess there: a still tube does not
-  // random-walk about its axis, and a turning one adds up until it stands out.
-  if (prior == nullptr && config.hold_chi2 > 0 && weak_sum_w > 0 && sys.sum_w > 0 && sys.sum_wr2 > 0) {
-    const double variance = sys.sum_wr2 / sys.sum_w;
-    double chi2 = 0;
-    Vector6d weak_part = Vector6d::Zero();
-    const Vector6d e = deviation(T);
-    for (int k = 0; k < 6; ++k) {
-      const double lambda = eig.eigenvalues()[k];
-      if (lambda >= config.weak_direction * weak_sum_w) continue;
-      const Vector6d v = eig.eigenvectors().col(k);
-      weak_part += v.dot(e) * v;
-      if (lambda <= 1e-9 * weak_sum_w) continue;  // unobservable: no evidence either way
-      const double optimum = v.dot(weak_e) - v.dot(weak_gs) / lambda;
-      chi2 += lambda * optimum * optimum / variance;
-    }
-    result.weak_motion_chi2 = chi2;
-    if (chi2 < config.hold_chi2 && weak_part.squaredNorm() > 0) {
-      T = guess_o * increment(S.asDiagonal() * (e - weak_part)).inverse(Eigen::Isometry);
-      T.linear() = orthonormalized(T.linear());
-      result.T_target_source = T;
-      result.held = true;
-    }
-  }
+  result.information = sys.H / residualVariance(sys);
   if (result.status == RegistrationStatus::kMaxIterations)
     result.reason = "stopped after " + std::to_string(config.max_iterations) + " iterations without converging";
   return result;
 }
 
-RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
-                                        const Pose& guess, double max_distance, const IcpConfig& config) {
-  const ScanIndex index(target, std::isfinite(max_distance) && max_distance > 0 ? max_distance : 1.0);
-  return registerPointToPlane(source, source_normals, index, guess, max_distance, config);
+RegistrationResult registerSurfaces(const Cloud& model, const Cloud& model_normals, const Cloud& scan,
+                                    const Cloud& scan_normals, const Pose& guess, double max_distance,
+                                    const IcpConfig& config) {
+  const double cell = std::isfinite(max_distance) && max_distance > 0 ? max_distance : 1.0;
+  const ScanIndex model_index(model, cell), scan_index(scan, cell);
+  return registerSurfaces({model, model_normals, model_index}, {scan, scan_normals, scan_index}, guess, max_distance,
+                          config);
 }
 
 }  // namespace depowder::tracker

@@ -9,7 +9,8 @@ namespace depowder::tracker {
 namespace {
 constexpr float kEmpty = std::numeric_limits<float>::infinity();
 constexpr int kMaxSide = 512;
-constexpr double kMinCosine = 0.5;  // a point is judged from cameras within 60 deg of its normal  // pixels; a region seen from closer than its size is clipped to this
+constexpr double kMinCosine = 0.5;  // a point is judged from cameras within 60 deg of its normal  // pixels; a region
+                                    // seen from closer than its size is clipped to this
 }  // namespace
 
 // Pixel of p in a gnomonic (pinhole) projection along the image's axis, or -1 outside.

@@ -65,20 +65,33 @@ std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::
   return non_finite;
 }
 
-void facing(const Cloud& points, const Cloud& normals, const Pose& T_cell_part, const std::vector<Point>& viewpoints,
-            Cloud& out_points, Cloud& out_normals) {
+PowderHeights::PowderHeights(const Cloud& band, double mean_height, double radius)
+    : band_(band), mean_(mean_height), radius_(radius) {}
+
+double PowderHeights::at(const Eigen::Vector2d& xy) const {
+  z_.clear();
+  for (const Point& b : band_)
+    if ((b.head<2>() - xy).squaredNorm() <= radius_ * radius_) z_.push_back(b.z());
+  if (z_.size() < 3) return mean_;
+  std::nth_element(z_.begin(), z_.begin() + z_.size() / 2, z_.end());
+  return z_[z_.size() / 2];
+}
+
+void visibleTemplate(const Cloud& points, const Cloud& normals, const Pose& T_cell_part,
+                     const std::vector<Point>& viewpoints, const PowderHeights& powder, double margin,
+                     Cloud& out_points, Cloud& out_normals) {
   out_points.clear();
   out_normals.clear();
-  const Pose T_part_cell = T_cell_part.inverse(Eigen::Isometry);
-  std::vector<Point> eyes;  // viewpoints in the part frame
-  for (const Point& c : viewpoints) eyes.push_back(T_part_cell * c);
-  for (std::size_t i = 0; i < points.size(); ++i)
-    for (const Point& eye : eyes)
-      if (normals[i].dot(eye - points[i]) > 0) {
-        out_points.push_back(points[i]);
-        out_normals.push_back(normals[i]);
-        break;
-      }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Point p = T_cell_part * points[i];
+    const Eigen::Vector3d n = T_cell_part.linear() * normals[i];
+    bool faces = viewpoints.empty();
+    for (const Point& eye : viewpoints) faces = faces || n.dot(eye - p) > 0;
+    if (!faces) continue;
+    if (!powder.empty() && p.z() < powder.at(p.head<2>()) + margin) continue;
+    out_points.push_back(points[i]);
+    out_normals.push_back(normals[i]);
+  }
 }
 
 Cloud gather(const Cloud& points, const Indices& indices) {

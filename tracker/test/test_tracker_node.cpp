@@ -74,8 +74,13 @@ TEST(TrackerOptions, DefaultCellHasTheLibraryDefaults) {
   EXPECT_EQ(o.tracker.icp.convergence_translation, d.icp.convergence_translation);
   EXPECT_EQ(o.tracker.icp.convergence_rotation, d.icp.convergence_rotation);
   EXPECT_EQ(o.tracker.icp.kernel_scale, d.icp.kernel_scale);
-  EXPECT_EQ(o.tracker.icp.motion_prior, d.icp.motion_prior);
-  EXPECT_EQ(o.tracker.icp.weak_direction, d.icp.weak_direction);
+  EXPECT_EQ(o.tracker.icp.normal_min_cos, d.icp.normal_min_cos);
+  EXPECT_EQ(o.tracker.icp.normal_radius, d.icp.normal_radius);
+  EXPECT_EQ(o.tracker.icp.tangent_weight, d.icp.tangent_weight);
+  EXPECT_EQ(o.tracker.icp.scan_weight, d.icp.scan_weight);
+  EXPECT_EQ(o.tracker.visibility.powder_radius, d.visibility.powder_radius);
+  EXPECT_EQ(o.tracker.visibility.powder_margin, d.visibility.powder_margin);
+  EXPECT_EQ(o.tracker.filter.data_inflation, d.filter.data_inflation);
   EXPECT_EQ(o.tracker.icp.max_step_rotation, d.icp.max_step_rotation);
   EXPECT_EQ(o.tracker.icp.min_correspondences, d.icp.min_correspondences);
   EXPECT_EQ(o.tracker.status.tracking_min_inlier_ratio, d.status.tracking_min_inlier_ratio);
@@ -105,7 +110,9 @@ TEST(TrackerOptions, BadKeysAndValuesAreNamed) {
   EXPECT_NE(error("{method: gicp}").find("method"), std::string::npos);
   EXPECT_NE(error("{delta2: -1}").find("delta2"), std::string::npos);
   EXPECT_NE(error("{status: {tracking_max_rms: 0.004, lost_max_rms: 0.002}}").find("lost_max_rms"), std::string::npos);
-  EXPECT_EQ(error("{method: vanilla, icp: {motion_prior: 0.5}}"), "no error");
+  EXPECT_NE(error("{visibility: {powder_radius: 0.5}}").find("powder_radius"), std::string::npos);
+  EXPECT_NE(error("{icp: {motion_prior: 0.3}}").find("motion_prior"), std::string::npos);  // gone: the filter
+  EXPECT_EQ(error("{method: vanilla, icp: {tangent_weight: 0.5}, filter: {data_inflation: 5}}"), "no error");
 }
 
 TEST(TrackerNode, OnePosePerPartWithTheFrameUtime) {
@@ -172,7 +179,8 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
   for (const auto& [name, p] : first.lastPoses()) {
     EXPECT_EQ(saved.at(name).utime, p.utime);
     EXPECT_LT(translationDistance(saved.at(name).T_cell_part, p.T_cell_part), 1e-12) << name;
-    EXPECT_LT(rotationAngle(saved.at(name).T_cell_part.linear(), p.T_cell_part.linear()), 1e-7) << name;  // acos resolves ~1e-8
+    EXPECT_LT(rotationAngle(saved.at(name).T_cell_part.linear(), p.T_cell_part.linear()), 1e-7)
+        << name;  // acos resolves ~1e-8
   }
   // The restarted node starts every part from its saved pose, not the cell's initial pose
   // (2 mm off the truth), and skips Phase 1's wait.

@@ -54,7 +54,7 @@ const char* kUsage =
     "  --from FILE            report: rebuild DIR/results.md from a JSON file that report --json wrote\n"
     "  --notes FILE           report: markdown appended verbatim (default tools/eval/report_notes.md)\n"
     "  --no-nozzle            static: no nozzle in the cell (what its occlusion and interference cost)\n"
-    "  --set KEY=VALUE        a tracker setting for every method (e.g. icp.motion_prior=0); repeatable\n"
+    "  --set KEY=VALUE        a tracker setting for every method (e.g. filter.data_inflation=0); repeatable\n"
     "  --quiet                no progress bar\n";
 
 int usage(const std::string& error = "") {

@@ -64,7 +64,7 @@ tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell&
 std::string traceHeader() {
   return "experiment,part,method,trial,frame,rot_err_deg,trans_err_mm,err_rx_deg,err_ry_deg,err_rz_deg,"
          "err_x_mm,err_y_mm,err_z_mm,moved_mm,turned_deg,status,iterations,inlier_ratio,rms_mm,eta,"
-         "template_updated,held,refit";
+         "template_updated,refit";
 }
 
 std::string traceLine(const TraceRow& row) {
@@ -75,12 +75,12 @@ std::string traceLine(const TraceRow& row) {
   const Eigen::Vector3d w = aa.angle() * 180.0 / M_PI * aa.axis();
   const Eigen::Vector3d t = 1000.0 * E.translation();
   char buf[512];
-  std::snprintf(buf, sizeof buf, "%s,%s,%s,%d,%d,%.3f,%.2f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.3f", row.experiment.c_str(),
-                row.part.c_str(), row.method.c_str(), row.trial, row.frame, e.rot_deg, 10.0 * e.trans_cm, w.x(), w.y(),
-                w.z(), t.x(), t.y(), t.z(), 10.0 * moved.trans_cm, moved.rot_deg);
+  std::snprintf(buf, sizeof buf, "%s,%s,%s,%d,%d,%.3f,%.2f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.2f,%.3f",
+                row.experiment.c_str(), row.part.c_str(), row.method.c_str(), row.trial, row.frame, e.rot_deg,
+                10.0 * e.trans_cm, w.x(), w.y(), w.z(), t.x(), t.y(), t.z(), 10.0 * moved.trans_cm, moved.rot_deg);
   std::string line = buf;
-  std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d,%d", tracker::toString(r.status), r.iterations,
-                r.inlier_ratio, 1000.0 * r.fitness, r.eta, r.template_updated ? 1 : 0, r.held ? 1 : 0, r.refit ? 1 : 0);
+  std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d", tracker::toString(r.status), r.iterations,
+                r.inlier_ratio, 1000.0 * r.fitness, r.eta, r.template_updated ? 1 : 0, r.refit ? 1 : 0);
   return line + buf;
 }
 

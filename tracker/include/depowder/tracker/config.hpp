@@ -24,23 +24,31 @@ const char* toString(Method method);
 /// The method called `name`, or nullopt.
 std::optional<Method> methodFromString(const std::string& name);
 
-/// The registration (Alg. 1, line 8). Defaults measured with depowder-bench.
+/// The registration (Alg. 1, line 8; registration.hpp). Defaults measured with depowder-eval.
 struct IcpConfig {
   int max_iterations = 30;                 ///< per frame (the authors: 30)
   double max_correspondence_distance = 0;  ///< m; 0 = the part's xi (as the authors)
-  double convergence_translation = 5e-4;   ///< m: stop when an update moves less than this...
-  double convergence_rotation = 5e-3;      ///< rad: ...and rotates less than this (0.29 deg)
+  double convergence_translation = 1e-4;   ///< m: stop when an update moves less than this...
+  double convergence_rotation = 1e-3;      ///< rad: ...and rotates less than this (0.06 deg)
   double kernel_scale =
-      0.002;                  ///< m, least Geman-McClure scale (it adapts: 3 robust sigmas of the residuals); 0 = none
-  double motion_prior = 0.3;  ///< prior towards the previous pose along weak directions, in matches' worth;
-                              ///< it holds what the scan cannot see (a tube's spin); 0 = none (one-off use)
-  double weak_direction = 0.2;  ///< a motion constrained by less than this fraction of the matches is weak
-  double hold_chi2 = 25;        ///< along the weak directions, a move from the previous pose that lowers the weighted
-                                ///< squared residuals by less than this many variances is noise: kept at the previous
-                                ///< pose, so a still tube does not random-walk about its axis; 0 = never hold
+      0.002;  ///< m, least Geman-McClure scale (it adapts: 3 robust sigmas of the residuals); 0 = none
+  double normal_min_cos = 0.7;     ///< matched points' normals must be within acos(this) (45 deg): a wall never pairs
+                                   ///< with the powder beside it or with the other face of a thin wall
+  double normal_radius = 0.01;     ///< m, neighbourhood of a scan point's normal (its neighbours' least-variance axis)
+  double tangent_weight = 1;       ///< weight of a template match's offset along the tangent plane (1: point-to-point,
+                                   ///< the authors' metric; 0: point-to-plane)
+  double scan_weight = 1;          ///< weight of the scan -> template matches (0: template -> scan only)
   double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
   int min_correspondences = 12;    ///< fewer: the fit is refused (6 unknowns; keep well above)
-  double point_weight = 0;         ///< weight of a match's offset along the tangent plane (1: point-to-point)
+};
+
+/// The template points ICP uses in a frame: those facing a camera and above the powder around
+/// them (the powder contour of Eq. 2 from the last frame: a wall that a push has buried under a
+/// pile of powder, or the band just under the powder line, is not matched to the powder).
+struct VisibilityConfig {
+  double powder_radius = 0.02;  ///< m: the powder height at a point is the median of the last frame's contour band
+                                ///< points within this (2-D); 0 = no powder test
+  double powder_margin = 0.0;   ///< m: points lower than that height + this are left out
 };
 
 /// When a fit is believed (TrackResult::status). The same rule for all three methods.
@@ -51,17 +59,16 @@ struct StatusConfig {
   double lost_max_rms = 0.006;             ///< m; above: LOST
 };
 
-/// Not in the paper: an alternative to IcpConfig's motion prior and hold for parts that move
-/// (tracker/README.md, "The filter"). The pose carries an information matrix from frame to frame
-/// (a Kalman filter's, in information form): it loses the process noise below each frame and
-/// gains each fit's. ICP is pulled towards the last pose by that information, so what the scans
-/// have shown over many frames holds, and a direction they constrain well follows the scan at
-/// once. The process noise is set per cell-frame direction: a part in powder slides and turns
-/// about the vertical, it seldom tips, so a roll that the scan cannot tell from a slide is
-/// resolved as the slide.
+/// Not in the paper: the pose's information carried from frame to frame (a Kalman filter in
+/// information form, tracker/README.md "The filter"). It loses the process noise below each frame
+/// and gains each fit's; ICP is pulled towards the last pose by it, so what the scans have shown
+/// over many frames holds (a tube's spin, which no single frame shows), and a direction they
+/// constrain well follows the scan at once. The process noise is set per cell-frame direction: a
+/// part in powder slides and turns about the vertical, it seldom tips, so a roll that the scan
+/// cannot tell from a slide is resolved as the slide.
 struct FilterConfig {
-  double data_inflation = 0;  ///< a fit counts this many times less than its residuals claim (they are not
-                              ///< independent); 0 = off: the motion prior and the hold instead
+  double data_inflation = 3;  ///< a fit counts this many times less than its residuals claim (neighbouring voxels
+                              ///< share noise); 0 = off: every frame registered on its own from the last pose
   double q_yaw_deg = 0.2;     ///< deg per frame: process noise of a turn about the vertical
   double q_tilt_deg = 0.01;   ///< deg per frame: of a tip about a horizontal axis
   double q_xy = 0.001;        ///< m per frame: of a horizontal slide
@@ -84,10 +91,12 @@ struct TrackerConfig {
                                   ///< skips template points facing away from all of them. Empty: no culling
   double refit_margin = 0.02;     ///< the refit (sight.hpp) replaces the pose when its sight score beats the tracked
                                   ///< pose's by this fraction of P_cad's icp_leaf samples; 0 = never refit
-  double refit_min_rotation_deg = 10;  ///< deg; a refit that turns the pose less (and moves it less than xi) is not taken
-  double refit_min_eta = 0.85;    ///< the refit runs only above this progress: with more of the part under powder, a
-                                  ///< whole-model score prefers poses that lift the buried part onto the powder
+  double refit_min_rotation_deg =
+      10;                       ///< deg; a refit that turns the pose less (and moves it less than xi) is not taken
+  double refit_min_eta = 0.85;  ///< the refit runs only above this progress: with more of the part under powder, a
+                                ///< whole-model score prefers poses that lift the buried part onto the powder
   IcpConfig icp;
+  VisibilityConfig visibility;
   FilterConfig filter;
   StatusConfig status;
   progress::ProgressConfig progress;  ///< Eq. 2 settings for the update rule (Alg. 1, line 11)
@@ -96,7 +105,7 @@ struct TrackerConfig {
 /// Empty if `config` is usable, otherwise what is wrong (names the field).
 std::string validate(const TrackerConfig& config);
 
-/// Sets the numeric field `key`, named as in the YAML ("delta2", "icp.motion_prior", ...), to
+/// Sets the numeric field `key`, named as in the YAML ("delta2", "icp.tangent_weight", ...), to
 /// `value` (the --set of depowder-bench and depowder-eval). Throws std::invalid_argument
 /// naming the known keys, or what validate() finds wrong with the result.
 void setField(TrackerConfig& config, const std::string& key, double value);

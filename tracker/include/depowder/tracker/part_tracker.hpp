@@ -40,11 +40,10 @@ struct TrackResult {
   std::string reason;                   ///< why, when not kTracking; "" otherwise
   Pose T_cell_part = Pose::Identity();  ///< always valid (orthonormal, finite)
   double eta = 0;                       ///< progress used by the update rule (0..1)
-  double fitness = 0;                   ///< m, RMS point-to-plane residual of ICP's matches
+  double fitness = 0;                   ///< m, RMS point-to-plane residual of the template's matches
   double inlier_ratio = 0;              ///< matched template points / template points used by ICP
   int iterations = 0;                   ///< ICP iterations this frame
   bool template_updated = false;        ///< Alg. 2 ran this frame
-  bool held = false;                    ///< ICP's weak directions stayed at the last pose (icp.hold_chi2)
   bool refit = false;                   ///< the refit replaced ICP's pose (TrackerConfig::refit_margin)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
@@ -84,11 +83,12 @@ class PartTracker {
  private:
   double correspondenceDistance() const;
   double estimateEta(const Pose& T_cell_part, const Cloud& scan, std::string* why);
+  PosePrior predicted() const;
   void setTemplate(Indices indices);
   TrackResult refuse(TrackResult r, std::string why) const;
   void placeSparse(const Pose& T_cell_part);
   int sightScore(const Pose& T_cell_part, const SightImages& images, const ScanIndex& grid);
-  bool refit(const SightImages& images, const ScanIndex& grid, double max_distance);
+  bool refit(const SightImages& images, const Surface& scan, double max_distance);
 
   std::string name_;
   TrackerConfig config_;
@@ -100,21 +100,21 @@ class PartTracker {
 
   // Tracking state (Alg. 1).
   bool started_ = false;
-  Pose T_cell_part_;             ///< T_i
-  double eta_ = 0;               ///< last estimate
-  UpdateReference last_update_;  ///< R_last, t_last, eta_last
-  Indices template_;             ///< P_tmpl
+  Pose T_cell_part_;                              ///< T_i
+  double eta_ = 0;                                ///< last estimate
+  UpdateReference last_update_;                   ///< R_last, t_last, eta_last
+  Indices template_;                              ///< P_tmpl
   Cloud icp_points_, icp_normals_;                ///< P_tmpl thinned to icp_leaf, with normals
   Cloud cad_sparse_points_, cad_sparse_normals_;  ///< P_cad thinned to icp_leaf (part frame)
-  Cloud visible_points_, visible_normals_;        ///< the ICP template facing a camera, this frame
+  Cloud visible_points_, visible_normals_;        ///< the ICP template the cameras can see, this frame
+  PowderHeights powder_;                          ///< the powder around the part, from the last Eq. 2 band
   int template_version_ = 0;
-  /// The filter's information about T_i (FilterConfig; rotation vector then translation, part frame).
-  Eigen::Matrix<double, 6, 6> information_ = Eigen::Matrix<double, 6, 6>::Zero();
+  /// The filter's information about T_i (FilterConfig; PosePrior's coordinates).
+  Matrix6d information_ = Matrix6d::Zero();
   void resetInformation();
-  Eigen::Matrix<double, 6, 6> predictedInformation() const;
 
   // Per-frame buffers, kept to reuse their memory.
-  Cloud crop_;
+  Cloud crop_, crop_normals_;
   Cloud sight_points_, sight_normals_;  ///< P_cad thinned to icp_leaf, cell frame at a pose
   std::vector<unsigned char> verdict_;
   Cloud refit_points_, refit_normals_;

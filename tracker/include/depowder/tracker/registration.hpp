@@ -1,6 +1,13 @@
-// Point-to-plane ICP of an oriented source (CAD template points with their normals)
-// onto a target scan, with a robust kernel and nearest-neighbour association in a
-// ScanIndex built once per frame. This is Alg. 1, line 8: ICP(P_tmpl, P_i).
+// ICP of the part's template (CAD points with outward normals, part frame) onto a scan (cell
+// frame, with normals oriented towards the cameras). This is Alg. 1, line 8: ICP(P_tmpl, P_i).
+//
+// Both ways are matched: each template point to its nearest scan point, and each scan point to
+// its nearest template point, both within the correspondence distance and only where the two
+// normals agree (a wall's point never pairs with the powder beside it or with the other face of
+// a thin wall). Each scan point lies on the part or it does not; matched to the template, it
+// pulls the template only across the surface, so the template's own edges (where the part
+// enters the powder) do not drag it. A prior from the last frames (PosePrior) holds what the
+// scan cannot see, such as a tube's spin.
 #pragma once
 
 #include <string>
@@ -11,6 +18,9 @@
 
 namespace depowder::tracker {
 
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
 enum class RegistrationStatus {
   kConverged,              ///< the last update was below the convergence thresholds
   kMaxIterations,          ///< stopped at max_iterations (the pose is still the best estimate)
@@ -20,46 +30,59 @@ enum class RegistrationStatus {
 };
 const char* toString(RegistrationStatus status);
 
+/// A point cloud with unit normals and an index over its points (the same cloud).
+struct Surface {
+  const Cloud& points;
+  const Cloud& normals;
+  const ScanIndex& index;
+};
+
+/// What earlier frames say about the pose (the tracker's filter). Deviations of a pose T from
+/// T_cell_part are the rotation vector of R R_prior^T (cell axes, about the part's origin) and
+/// the translation t - t_prior (cell axes, m): the coordinates of RegistrationResult::information.
+struct PosePrior {
+  Pose T_cell_part = Pose::Identity();
+  Matrix6d information = Matrix6d::Zero();  ///< 1/rad^2, 1/m^2
+  double inflation = 1;                     ///< the fit's information counts this many times less (its
+                                            ///< residuals are not independent: neighbouring voxels share noise)
+};
+
 struct RegistrationResult {
   RegistrationStatus status = RegistrationStatus::kInvalidInput;
   std::string reason;                       ///< why, when not converged
   Pose T_target_source = Pose::Identity();  ///< always a valid rigid transform
   int iterations = 0;                       ///< association + solve rounds
-  int correspondences = 0;                  ///< source points matched in the last round
-  double inlier_ratio = 0;                  ///< correspondences / source points
-  int weak_directions = 0;                  ///< of 6, held by the motion prior in the last round
-  double rms = 0;                           ///< m, RMS point-to-plane residual of the last round's matches
-  double weak_motion_chi2 = 0;              ///< the move along the weak directions over the fit's noise (see hold_chi2)
-  bool held = false;                        ///< the weak directions were kept at the guess (config.hold_chi2)
+  int correspondences = 0;                  ///< template points matched in the last round
+  int scan_matches = 0;                     ///< scan points matched to the template in the last round
+  double inlier_ratio = 0;                  ///< correspondences / template points
+  double rms = 0;                           ///< m, RMS point-to-plane residual of the template's matches
   /// What the last round's matches say about the pose: their Gauss-Newton matrix over the
-  /// residual variance (1/rad^2, 1/m^2), in the update's coordinates (rotation vector, then
-  /// translation, of the source frame). The filter (FilterConfig) adds it up over frames.
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  /// residual variance, in PosePrior's coordinates. The tracker's filter adds it up over frames.
+  Matrix6d information = Matrix6d::Zero();
   bool ok() const { return status == RegistrationStatus::kConverged || status == RegistrationStatus::kMaxIterations; }
 };
 
-/// Registers `source` (points and unit normals, source frame) onto the scan in `target`.
-/// Association: each source point, moved by the current estimate, takes its nearest target
-/// point within `max_distance` (m; the index's cell should be about that). Residual: distance
-/// of that target point to the source point's tangent plane, weighted by a Geman-McClure
-/// kernel whose scale adapts to the residuals (3 robust sigmas, never below
-/// config.kernel_scale). Gauss-Newton on SE(3), starting at `guess`, with a motion prior
-/// towards the guess worth config.motion_prior of the matches along the directions the matches
-/// barely constrain (below config.weak_direction of them; motion_prior 0 for a one-off
-/// registration). config.point_weight > 0 adds the match's offset along the tangent plane
-/// (1: point-to-point).
+/// Registers `model` (the template: part frame, outward unit normals, its index in the part
+/// frame) onto `scan` (cell frame, normals towards the cameras), starting at `guess`.
+/// Association within `max_distance` (m) both ways, between points whose normals are within
+/// acos(config.normal_min_cos); residual: the distance to the template point's tangent plane,
+/// plus, for the template's matches, config.tangent_weight of the offset along it; weights by a
+/// Geman-McClure kernel whose scale adapts to the residuals (3 robust sigmas, never below
+/// config.kernel_scale). Gauss-Newton on the pose, with `prior` (if given) added to the cost.
 /// config.max_correspondence_distance is not read here.
-///
-/// `prior`, if given, replaces the motion prior and the hold: the information (as
-/// RegistrationResult::information) about the pose's deviation from `guess`; the estimate then
-/// minimises the residuals over their variance plus that deviation's squared norm in it.
-RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const ScanIndex& target,
-                                        const Pose& guess, double max_distance, const IcpConfig& config,
-                                        const Eigen::Matrix<double, 6, 6>* prior = nullptr);
+RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, const Pose& guess, double max_distance,
+                                    const IcpConfig& config, const PosePrior* prior = nullptr);
 
-/// Same, indexing `target` itself (tests, one-off registrations).
-RegistrationResult registerPointToPlane(const Cloud& source, const Cloud& source_normals, const Cloud& target,
-                                        const Pose& guess, double max_distance, const IcpConfig& config);
+/// Same, indexing both clouds itself (tests, one-off registrations).
+RegistrationResult registerSurfaces(const Cloud& model, const Cloud& model_normals, const Cloud& scan,
+                                    const Cloud& scan_normals, const Pose& guess, double max_distance,
+                                    const IcpConfig& config);
+
+/// Unit normals of the indexed points: the least-variance axis of their neighbours within
+/// `radius` (m), turned towards the viewpoint it faces most squarely (the camera that saw it);
+/// without viewpoints, towards +z. A point with fewer than 4 neighbours gets a zero normal,
+/// which matches nothing.
+Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, double radius);
 
 /// Nearest rotation to `R` (SVD), so a pose built from it is orthonormal to machine precision.
 Eigen::Matrix3d orthonormalized(const Eigen::Matrix3d& R);

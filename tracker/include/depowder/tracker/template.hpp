@@ -30,10 +30,28 @@ Indices allIndices(std::size_t n);
 std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::AlignedBox3d& box_part, double margin,
                        Cloud& out);
 
-/// The points (part frame, with outward unit normals) that face at least one of `viewpoints`
-/// (cell frame) when the part is at `T_cell_part`: back-face culling. Clears the outputs first.
-void facing(const Cloud& points, const Cloud& normals, const Pose& T_cell_part, const std::vector<Point>& viewpoints,
-            Cloud& out_points, Cloud& out_normals);
+/// The powder's height around a part, from the powder points of Eq. 2's contour band (cell
+/// frame): at an xy, the median height of the band points within `radius` (2-D), or the band's
+/// mean height where fewer than 3 are that near.
+class PowderHeights {
+ public:
+  PowderHeights() = default;
+  PowderHeights(const Cloud& band, double mean_height, double radius);
+  bool empty() const { return band_.empty(); }
+  double at(const Eigen::Vector2d& xy) const;
+
+ private:
+  Cloud band_;
+  double mean_ = 0, radius_ = 0;
+  mutable std::vector<double> z_;
+};
+
+/// The template points ICP can use this frame (part frame, with normals): those facing at least one
+/// of `viewpoints` (back-face culling; none: no culling) and, if `powder` is not empty, not below
+/// the powder around them by more than `margin` (m) at pose T_cell_part. Clears the outputs first.
+void visibleTemplate(const Cloud& points, const Cloud& normals, const Pose& T_cell_part,
+                     const std::vector<Point>& viewpoints, const PowderHeights& powder, double margin,
+                     Cloud& out_points, Cloud& out_normals);
 
 /// Gathers points[indices].
 Cloud gather(const Cloud& points, const Indices& indices);
