@@ -24,16 +24,17 @@ namespace {
 
 int usage(const std::string& error = "") {
   if (!error.empty()) std::cerr << "depowder-retrack: " << error << "\n";
-  std::cerr << "usage: depowder-retrack RUN.lcmlog --cell CELL.yaml [--set tracker.KEY=VALUE]... [--every S]\n"
-               "                        [--from S] [--to S] [--prefix P]\n"
-               "  Tracks the log's POINTS frames with the cell's tracker settings (--set changes one, as\n"
-               "  depowder-eval's --set: icp.tangent_weight=0) and prints, every S seconds of the run\n"
-               "  (default 5; 0: every frame), each part's status and its error against SIM_TRUTH (with the\n"
-               "  error's rotation axis in the part frame), the fit's inlier ratio and RMS, P_cad against\n"
-               "  the cameras' lines of sight (sight seen/in front/hidden samples) and REFIT when the refit\n"
-               "  replaced the pose; then the error percentiles over the frames that reported TRACKING.\n"
-               "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
-               "  no truth.\n";
+  std::cerr
+      << "usage: depowder-retrack RUN.lcmlog --cell CELL.yaml [--set tracker.KEY=VALUE]... [--every S]\n"
+         "                        [--from S] [--to S] [--prefix P]\n"
+         "  Tracks the log's POINTS frames with the cell's tracker settings (--set changes one, as\n"
+         "  depowder-eval's --set: icp.tangent_weight=0) and prints, every S seconds of the run\n"
+         "  (default 5; 0: every frame), each part's status and its error against SIM_TRUTH (with the\n"
+         "  error's rotation axis and translation in the part frame), the fit's inlier ratio and RMS, P_cad against\n"
+         "  the cameras' lines of sight (sight seen/in front/hidden samples) and REFIT when the refit\n"
+         "  replaced the pose; then the error percentiles over the frames that reported TRACKING.\n"
+         "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
+         "  no truth.\n";
   return error.empty() ? 0 : 2;
 }
 
@@ -136,13 +137,19 @@ int main(int argc, char** argv) {
           last[p.part] = {dr, dt};
           if (p.status == part_pose_t::TRACKING) rot[p.part].push_back(dr), trans[p.part].push_back(dt);
           if (print) {
-            // The rotation error's axis in the part frame: a spin about a symmetry axis shows here.
-            const Eigen::AngleAxisd aa(truth_it->second.linear().transpose() * T->linear());
-            std::printf("%7.2f s  %-10s %-8s eta %.3f  err %6.2f deg about (%+.2f %+.2f %+.2f) %5.2f cm  inliers %.2f "
-                        "rms %.2f mm  sight %d/%d/%d%s  %s\n",
-                        t, p.part.c_str(), status.c_str(), p.eta, dr, aa.axis().x(), aa.axis().y(), aa.axis().z(), dt,
-                        p.inlier_ratio, 1e3 * p.fitness, result ? result->sight.seen : 0, result ? result->sight.in_front : 0,
-                        result ? result->sight.hidden : 0, result && result->refit ? " REFIT" : "", p.status_reason.c_str());
+            // The error's rotation axis and translation in the part frame: a spin about a symmetry
+            // axis, or a part sitting high, shows here.
+            const Pose E = truth_it->second.inverse(Eigen::Isometry) * *T;
+            const Eigen::AngleAxisd aa(E.linear());
+            const Eigen::Vector3d err_mm = 1000 * E.translation();
+            std::printf(
+                "%7.2f s  %-10s %-8s eta %.3f  err %6.2f deg about (%+.2f %+.2f %+.2f) %5.2f cm (%+.1f %+.1f %+.1f mm) "
+                " "
+                "inliers %.2f rms %.2f mm  sight %d/%d/%d%s  %s\n",
+                t, p.part.c_str(), status.c_str(), p.eta, dr, aa.axis().x(), aa.axis().y(), aa.axis().z(), dt,
+                err_mm.x(), err_mm.y(), err_mm.z(), p.inlier_ratio, 1e3 * p.fitness, result ? result->sight.seen : 0,
+                result ? result->sight.in_front : 0, result ? result->sight.hidden : 0,
+                result && result->refit ? " REFIT" : "", p.status_reason.c_str());
           }
         }
       }
@@ -159,9 +166,10 @@ int main(int argc, char** argv) {
       for (const auto& [status, n] : counts) std::printf(" %s %d", status.c_str(), n);
       const auto& r = rot[part];
       const auto& d = trans[part];
-      std::printf("\n  while tracking: rotation p50 %.2f p95 %.2f max %.2f deg, translation p50 %.2f p95 %.2f max %.2f cm\n",
-                  percentile(r, 0.5), percentile(r, 0.95), r.empty() ? NAN : *std::max_element(r.begin(), r.end()),
-                  percentile(d, 0.5), percentile(d, 0.95), d.empty() ? NAN : *std::max_element(d.begin(), d.end()));
+      std::printf(
+          "\n  while tracking: rotation p50 %.2f p95 %.2f max %.2f deg, translation p50 %.2f p95 %.2f max %.2f cm\n",
+          percentile(r, 0.5), percentile(r, 0.95), r.empty() ? NAN : *std::max_element(r.begin(), r.end()),
+          percentile(d, 0.5), percentile(d, 0.95), d.empty() ? NAN : *std::max_element(d.begin(), d.end()));
       std::printf("  last frame: %.2f deg, %.2f cm\n", last[part].first, last[part].second);
     }
     return 0;

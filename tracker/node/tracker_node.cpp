@@ -59,6 +59,10 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   filter.read("q_tilt_deg", c.filter.q_tilt_deg, 1e-6, 90.0);
   filter.read("q_xy", c.filter.q_xy, 1e-7, 1.0);
   filter.read("q_z", c.filter.q_z, 1e-7, 1.0);
+  filter.read("still_turn", c.filter.still_turn, 1e-6, 1.0);
+  filter.read("moving_translation", c.filter.moving_translation, 0.0, 1.0);
+  filter.read("moving_rotation_deg", c.filter.moving_rotation_deg, 0.0, 180.0);
+  filter.read("moving_frames", c.filter.moving_frames, 1, 1000);
   filter.read("initial_deg", c.filter.initial_deg, 1e-6, 180.0);
   filter.read("initial_m", c.filter.initial_m, 1e-7, 1.0);
   filter.finish();

@@ -63,6 +63,10 @@ std::string validate(const TrackerConfig& c) {
   if (!positive(c.filter.q_yaw_deg) || !positive(c.filter.q_tilt_deg) || !positive(c.filter.q_xy) ||
       !positive(c.filter.q_z))
     return "filter.q_yaw_deg, q_tilt_deg, q_xy and q_z must be > 0";
+  if (!positive(c.filter.still_turn) || c.filter.still_turn > 1) return "filter.still_turn must be in (0, 1]";
+  if (!nonNegative(c.filter.moving_translation) || !nonNegative(c.filter.moving_rotation_deg))
+    return "filter.moving_translation and filter.moving_rotation_deg must be >= 0";
+  if (c.filter.moving_frames < 1) return "filter.moving_frames must be >= 1";
   if (!positive(c.filter.initial_deg) || !positive(c.filter.initial_m))
     return "filter.initial_deg and filter.initial_m must be > 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
@@ -105,16 +109,21 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"filter.q_xy", &c.filter.q_xy},
                                               {"filter.q_z", &c.filter.q_z},
                                               {"filter.initial_deg", &c.filter.initial_deg},
+                                              {"filter.still_turn", &c.filter.still_turn},
+                                              {"filter.moving_translation", &c.filter.moving_translation},
+                                              {"filter.moving_rotation_deg", &c.filter.moving_rotation_deg},
                                               {"filter.initial_m", &c.filter.initial_m},
                                               {"progress.grid_cell", &c.progress.grid_cell},
                                               {"progress.contour_spacing", &c.progress.contour_spacing},
                                               {"progress.footprint_reuse", &c.progress.footprint_reuse}};
   if (key == "icp.max_iterations") {
     c.icp.max_iterations = static_cast<int>(value);
+  } else if (key == "filter.moving_frames") {
+    c.filter.moving_frames = static_cast<int>(value);
   } else if (const auto it = fields.find(key); it != fields.end()) {
     *it->second = value;
   } else {
-    std::string known = "icp.max_iterations";
+    std::string known = "icp.max_iterations, filter.moving_frames";
     for (const auto& f : fields) known += ", " + f.first;
     throw std::invalid_argument("unknown tracker key '" + key + "' (known: " + known + ")");
   }

@@ -65,12 +65,14 @@ void PartTracker::resetInformation() {
 }
 
 // The filter's prediction for this frame: the part stays where it was, less sure by the process
-// noise (cell axes: it turns about the vertical and slides, it seldom tips or sinks).
+// noise (cell axes: it turns about the vertical and slides, it seldom tips or sinks; a still part
+// turns far less than a pushed one).
 PosePrior PartTracker::predicted() const {
   const FilterConfig& f = config_.filter;
   const double yaw = f.q_yaw_deg * M_PI / 180, tilt = f.q_tilt_deg * M_PI / 180;
   Vector6d q;
   q << tilt * tilt, tilt * tilt, yaw * yaw, f.q_xy * f.q_xy, f.q_xy * f.q_xy, f.q_z * f.q_z;
+  if (!moving_) q.head<3>() *= f.still_turn * f.still_turn;
   Matrix6d covariance = information_.inverse();
   covariance.diagonal() += q;
   PosePrior prior;
@@ -254,7 +256,15 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     return finish(refuse(
         r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
   T_cell_part_ = reg.T_target_source;
-  if (filter) information_ = prior.information + reg.information / config_.filter.data_inflation;  // the update
+  if (filter) {
+    information_ = prior.information + reg.information / config_.filter.data_inflation;  // the update
+    // Still or moving: how far the part went over the last moving_frames frames.
+    recent_.push_back(T_cell_part_);
+    if (recent_.size() > static_cast<std::size_t>(config_.filter.moving_frames) + 1) recent_.pop_front();
+    moving_ = translationDistance(recent_.front(), recent_.back()) > config_.filter.moving_translation ||
+              rotationDistanceDeg(recent_.front(), recent_.back()) > config_.filter.moving_rotation_deg;
+  }
+  r.moving = moving_;
   r.T_cell_part = T_cell_part_;
   r.status = TrackStatus::kTracking;
   if (reg.inlier_ratio < s.tracking_min_inlier_ratio) {

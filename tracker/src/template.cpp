@@ -66,12 +66,19 @@ std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::
 }
 
 PowderHeights::PowderHeights(const Cloud& band, double mean_height, double radius)
-    : band_(band), mean_(mean_height), radius_(radius) {}
+    : mean_(mean_height), radius_(radius) {
+  Cloud flat;
+  for (const Point& b : band)
+    if (b.allFinite()) {
+      flat.emplace_back(b.x(), b.y(), 0.0);
+      heights_.push_back(b.z());
+    }
+  flat_ = ScanIndex(flat, radius);
+}
 
 double PowderHeights::at(const Eigen::Vector2d& xy) const {
   z_.clear();
-  for (const Point& b : band_)
-    if ((b.head<2>() - xy).squaredNorm() <= radius_ * radius_) z_.push_back(b.z());
+  flat_.forEachWithin(Point(xy.x(), xy.y(), 0.0), radius_, [&](int i, double) { z_.push_back(heights_[i]); });
   if (z_.size() < 3) return mean_;
   std::nth_element(z_.begin(), z_.begin() + z_.size() / 2, z_.end());
   return z_[z_.size() / 2];

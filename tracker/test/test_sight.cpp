@@ -36,10 +36,10 @@ TEST(SightImages, JudgesEachPointAgainstTheFloor) {
   const Floor f;
   const SightImages images(f.scan, f.eyes, f.region);
   Cloud points, normals;
-  patch(0.002, Eigen::Vector3d::UnitZ(), points, normals);    // on the floor: seen
-  patch(0.03, Eigen::Vector3d::UnitZ(), points, normals);     // 3 cm above it: the cameras saw through it
-  patch(-0.03, Eigen::Vector3d::UnitZ(), points, normals);    // 3 cm below it: hidden by the floor
-  patch(0.03, -Eigen::Vector3d::UnitZ(), points, normals);    // facing down: no camera judges it
+  patch(0.002, Eigen::Vector3d::UnitZ(), points, normals);  // on the floor: seen
+  patch(0.03, Eigen::Vector3d::UnitZ(), points, normals);   // 3 cm above it: the cameras saw through it
+  patch(-0.03, Eigen::Vector3d::UnitZ(), points, normals);  // 3 cm below it: hidden by the floor
+  patch(0.03, -Eigen::Vector3d::UnitZ(), points, normals);  // facing down: no camera judges it
   std::vector<unsigned char> verdict;
   const SightCheck c = images.check(points, normals, 0.008, &verdict);
   EXPECT_EQ(c.seen, 25);

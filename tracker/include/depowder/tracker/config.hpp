@@ -35,7 +35,7 @@ struct IcpConfig {
   double normal_min_cos = 0.7;     ///< matched points' normals must be within acos(this) (45 deg): a wall never pairs
                                    ///< with the powder beside it or with the other face of a thin wall
   double normal_radius = 0.01;     ///< m, neighbourhood of a scan point's normal (its neighbours' least-variance axis)
-  double tangent_weight = 1;       ///< weight of a template match's offset along the tangent plane (1: point-to-point,
+  double tangent_weight = 0.3;     ///< weight of a template match's offset along the tangent plane (1: point-to-point,
                                    ///< the authors' metric; 0: point-to-plane)
   double scan_weight = 1;          ///< weight of the scan -> template matches (0: template -> scan only)
   double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
@@ -65,16 +65,22 @@ struct StatusConfig {
 /// over many frames holds (a tube's spin, which no single frame shows), and a direction they
 /// constrain well follows the scan at once. The process noise is set per cell-frame direction: a
 /// part in powder slides and turns about the vertical, it seldom tips, so a roll that the scan
-/// cannot tell from a slide is resolved as the slide.
+/// cannot tell from a slide is resolved as the slide. A part that has not moved over the last
+/// moving_frames frames is still: its turns' process noise shrinks by still_turn, so a still
+/// tube's unseen spin does not wander with the noise.
 struct FilterConfig {
   double data_inflation = 3;  ///< a fit counts this many times less than its residuals claim (neighbouring voxels
                               ///< share noise); 0 = off: every frame registered on its own from the last pose
-  double q_yaw_deg = 0.2;     ///< deg per frame: process noise of a turn about the vertical
+  double q_yaw_deg = 0.2;     ///< deg per frame: process noise of a turn about the vertical (a pushed part)
   double q_tilt_deg = 0.01;   ///< deg per frame: of a tip about a horizontal axis
   double q_xy = 0.001;        ///< m per frame: of a horizontal slide
   double q_z = 0.0002;        ///< m per frame: of a rise or a sink
-  double initial_deg = 0.5;   ///< uncertainty of the initial pose (and of a refit's), deg...
-  double initial_m = 0.001;   ///< ...and m
+  double still_turn = 0.1;    ///< a still part's turn noise: this fraction of q_yaw_deg and q_tilt_deg
+  double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames frames...
+  double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
+  int moving_frames = 10;             ///< frames (1/3 s at 30 fps)
+  double initial_deg = 0.5;           ///< uncertainty of the initial pose (and of a refit's), deg...
+  double initial_m = 0.001;           ///< ...and m
 };
 
 struct TrackerConfig {

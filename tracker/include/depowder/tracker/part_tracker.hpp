@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <string>
 
 #include "depowder/geometry.hpp"
@@ -45,6 +46,7 @@ struct TrackResult {
   int iterations = 0;                   ///< ICP iterations this frame
   bool template_updated = false;        ///< Alg. 2 ran this frame
   bool refit = false;                   ///< the refit replaced ICP's pose (TrackerConfig::refit_margin)
+  bool moving = false;                  ///< the filter takes the part as moving (FilterConfig::moving_translation)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
   std::size_t scan_points = 0;          ///< scan points in the crop around the part
@@ -111,6 +113,8 @@ class PartTracker {
   int template_version_ = 0;
   /// The filter's information about T_i (FilterConfig; PosePrior's coordinates).
   Matrix6d information_ = Matrix6d::Zero();
+  std::deque<Pose> recent_;  ///< the last poses tracked (the filter's motion test)
+  bool moving_ = false;
   void resetInformation();
 
   // Per-frame buffers, kept to reuse their memory.

@@ -37,11 +37,12 @@ class PowderHeights {
  public:
   PowderHeights() = default;
   PowderHeights(const Cloud& band, double mean_height, double radius);
-  bool empty() const { return band_.empty(); }
+  bool empty() const { return heights_.empty(); }
   double at(const Eigen::Vector2d& xy) const;
 
  private:
-  Cloud band_;
+  ScanIndex flat_;               ///< the band points at z = 0
+  std::vector<double> heights_;  ///< their heights, in the index's order
   double mean_ = 0, radius_ = 0;
   mutable std::vector<double> z_;
 };
