@@ -230,11 +230,17 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   // template from T_{i-1} gives T_i = T_{i,i-1} x T_{i-1} directly. ICP uses the template points
   // the cameras can see now: facing one of them, not under the powder around the part.
   t0 = Clock::now();
-  crop_normals_ = scanNormals(grid, viewpoints, config_.icp.normal_radius);
   visibleTemplate(icp_points_, icp_normals_, T_cell_part_, viewpoints, powder_, config_.visibility.powder_margin,
                   visible_points_, visible_normals_);
   if (visible_points_.empty()) return finish(refuse(r, "no template point faces a camera above the powder"));
   const ScanIndex model_index(visible_points_, max_distance);
+  // Normals only where ICP can use them: scan points within 1.5 correspondence distances of the
+  // template (the pose moves little within a frame).
+  const Pose T_part_cell = T_cell_part_.inverse(Eigen::Isometry);
+  near_template_.resize(crop_.size());
+  for (std::size_t j = 0; j < crop_.size(); ++j)
+    near_template_[j] = model_index.nearest(T_part_cell * crop_[j], 1.5 * max_distance).found();
+  crop_normals_ = scanNormals(grid, viewpoints, config_.icp.normal_radius, near_template_);
   const Surface scan_surface{crop_, crop_normals_, grid};
   const bool filter = config_.filter.data_inflation > 0;
   const PosePrior prior = filter ? predicted() : PosePrior{};

@@ -34,10 +34,12 @@ Eigen::Matrix3d orthonormalized(const Eigen::Matrix3d& R) {
   return svd.matrixU() * D * svd.matrixV().transpose();
 }
 
-Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, double radius) {
+Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, double radius,
+                  const std::vector<std::uint8_t>& wanted) {
   const Cloud& points = index.points();
   Cloud normals(points.size(), Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!wanted.empty() && !wanted[i]) continue;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     Eigen::Matrix3d sum2 = Eigen::Matrix3d::Zero();
     int n = 0;
@@ -48,7 +50,8 @@ Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, 
     });
     if (n < 4) continue;
     const Eigen::Vector3d mean = sum / n;
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(sum2 / n - mean * mean.transpose());
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+    eig.computeDirect(sum2 / n - mean * mean.transpose());
     const Eigen::Vector3d axis = eig.eigenvectors().col(0);
     // A surface faces the camera that saw it; of the two signs, the one facing a viewpoint most
     // squarely.
@@ -128,6 +131,7 @@ LinearSystem buildLinearSystem(const Surface& model, const Surface& scan, const 
   if (config.scan_weight > 0) {
     const Eigen::Matrix3d Rt = R.transpose();
     for (std::size_t j = 0; j < scan.points.size(); ++j) {
+      if (scan.normals[j].isZero()) continue;  // no normal (or not wanted): matches nothing
       const Point& q = scan.points[j];
       const Eigen::Vector3d ns = Rt * scan.normals[j];
       const ScanIndex::Hit hit = model.index.nearest(

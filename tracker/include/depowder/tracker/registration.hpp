@@ -10,7 +10,9 @@
 // scan cannot see, such as a tube's spin.
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "depowder/geometry.hpp"
 #include "depowder/tracker/config.hpp"
@@ -81,8 +83,10 @@ RegistrationResult registerSurfaces(const Cloud& model, const Cloud& model_norma
 /// Unit normals of the indexed points: the least-variance axis of their neighbours within
 /// `radius` (m), turned towards the viewpoint it faces most squarely (the camera that saw it);
 /// without viewpoints, towards +z. A point with fewer than 4 neighbours gets a zero normal,
-/// which matches nothing.
-Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, double radius);
+/// which matches nothing; so does a point i with wanted[i] == 0 (if `wanted` is given: the
+/// tracker asks only for the points near the template).
+Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, double radius,
+                  const std::vector<std::uint8_t>& wanted = {});
 
 /// Nearest rotation to `R` (SVD), so a pose built from it is orthonormal to machine precision.
 Eigen::Matrix3d orthonormalized(const Eigen::Matrix3d& R);

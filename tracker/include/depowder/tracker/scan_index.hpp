@@ -4,6 +4,7 @@
 // point lying on the scan touches one or two cells instead of 27.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -25,8 +26,11 @@ class ScanIndex {
   ScanIndex(const Cloud& points, double cell, std::size_t max_cells = 1u << 22);
 
   /// The nearest point within `radius` (m) of q (exact).
-  Hit nearest(const Point& q, double radius) const;
-  /// The nearest point within `radius` of q among those for which accept(index) is true.
+  Hit nearest(const Point& q, double radius) const {
+    return nearest(q, radius, [](int) { return true; });
+  }
+  /// The nearest point within `radius` of q among those for which accept(index) is true
+  /// (asked only of points nearer than the best so far).
   template <class Accept>
   Hit nearest(const Point& q, double radius, const Accept& accept) const;
   /// Calls f(index, squared distance) for every point within `radius` of q.
@@ -70,12 +74,42 @@ void ScanIndex::visitCells(const Point& q, double radius, const Visit& visit) co
 template <class Accept>
 ScanIndex::Hit ScanIndex::nearest(const Point& q, double radius, const Accept& accept) const {
   Hit hit;
+  if (points_.empty() || !q.allFinite() || !(radius > 0)) return hit;
+  const Eigen::Array3d rel = (q - origin_).array() / cell_;  // q in cell units
   double best = radius * radius;
-  visitCells(q, radius, [&](std::uint32_t k) {
-    const double d2 = (sorted_[k] - q).squaredNorm();
-    if (d2 <= best && accept(original_[k])) best = d2, hit.index = original_[k];
-  });
-  if (hit.found()) hit.distance2 = best;
+  int best_k = -1;
+  auto index = [&](int x, int y, int z) { return (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x; };
+  auto scan = [&](std::size_t c) {
+    for (std::uint32_t k = start_[c]; k < start_[c + 1]; ++k) {
+      const double d2 = (sorted_[k] - q).squaredNorm();
+      if (d2 <= best && accept(original_[k])) best = d2, best_k = static_cast<int>(k);
+    }
+  };
+  // The query's own cell first: for a template point on the scan it usually holds the answer,
+  // and the search box below then shrinks to the distance found.
+  const Eigen::Array3i home = rel.floor().cast<int>();
+  const bool home_inside = (home >= 0).all() && (home < dims_.array()).all();
+  if (home_inside) scan(index(home.x(), home.y(), home.z()));
+  const double reach = std::sqrt(best) / cell_;
+  const Eigen::Array3i a = (rel - reach).floor().cast<int>().max(0);
+  const Eigen::Array3i b = (rel + reach).floor().cast<int>().min(dims_.array() - 1);
+  for (int z = a.z(); z <= b.z(); ++z) {
+    const double gz = z > rel.z() ? z - rel.z() : (rel.z() > z + 1 ? rel.z() - (z + 1) : 0.0);
+    for (int y = a.y(); y <= b.y(); ++y) {
+      const double gy = y > rel.y() ? y - rel.y() : (rel.y() > y + 1 ? rel.y() - (y + 1) : 0.0);
+      for (int x = a.x(); x <= b.x(); ++x) {
+        if (home_inside && x == home.x() && y == home.y() && z == home.z()) continue;
+        const double gx = x > rel.x() ? x - rel.x() : (rel.x() > x + 1 ? rel.x() - (x + 1) : 0.0);
+        // Skip a cell whose box is farther than the best match so far.
+        if ((gx * gx + gy * gy + gz * gz) * cell_ * cell_ > best) continue;
+        scan(index(x, y, z));
+      }
+    }
+  }
+  if (best_k >= 0) {
+    hit.index = original_[best_k];
+    hit.distance2 = best;
+  }
   return hit;
 }
 
