@@ -70,6 +70,7 @@ std::string validate(const TrackerConfig& c) {
   if (!positive(c.filter.initial_deg) || !positive(c.filter.initial_m))
     return "filter.initial_deg and filter.initial_m must be > 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
+  if (!nonNegative(c.icp.reassociate) || c.icp.reassociate > 0.05) return "icp.reassociate must be in [0, 0.05] m";
   if (c.icp.min_correspondences < 6) return "icp.min_correspondences must be >= 6";
   if (!fraction(c.status.tracking_min_inlier_ratio)) return "status.tracking_min_inlier_ratio must be in [0, 1]";
   if (!fraction(c.status.lost_min_inlier_ratio)) return "status.lost_min_inlier_ratio must be in [0, 1]";
@@ -103,6 +104,7 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"visibility.powder_radius", &c.visibility.powder_radius},
                                               {"visibility.powder_margin", &c.visibility.powder_margin},
                                               {"icp.max_step_rotation", &c.icp.max_step_rotation},
+                                              {"icp.reassociate", &c.icp.reassociate},
                                               {"filter.data_inflation", &c.filter.data_inflation},
                                               {"filter.q_yaw_deg", &c.filter.q_yaw_deg},
                                               {"filter.q_tilt_deg", &c.filter.q_tilt_deg},

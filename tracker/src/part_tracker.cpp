@@ -234,12 +234,12 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
                   visible_points_, visible_normals_);
   if (visible_points_.empty()) return finish(refuse(r, "no template point faces a camera above the powder"));
   const ScanIndex model_index(visible_points_, max_distance);
-  // Normals only where ICP can use them: scan points within 1.5 correspondence distances of the
-  // template (the pose moves little within a frame).
+  // Normals only where ICP can use them: scan points in the template's grid cells or next to them
+  // (cells of the correspondence distance; the pose moves little within a frame).
   const Pose T_part_cell = T_cell_part_.inverse(Eigen::Isometry);
   near_template_.resize(crop_.size());
   for (std::size_t j = 0; j < crop_.size(); ++j)
-    near_template_[j] = model_index.nearest(T_part_cell * crop_[j], 1.5 * max_distance).found();
+    near_template_[j] = model_index.anyInNeighbourCells(T_part_cell * crop_[j]);
   crop_normals_ = scanNormals(grid, viewpoints, config_.icp.normal_radius, near_template_);
   const Surface scan_surface{crop_, crop_normals_, grid};
   const bool filter = config_.filter.data_inflation > 0;

@@ -67,8 +67,8 @@ Cloud scanNormals(const ScanIndex& index, const std::vector<Point>& viewpoints, 
 
 namespace {
 
-// The normal equations of one association round (KISS-ICP's BuildLinearSystem), in the update's
-// coordinates: a rotation vector about the part's origin and a translation, both in cell axes.
+// The normal equations of one Gauss-Newton step, in the update's coordinates: a rotation vector
+// about the part's origin and a translation, both in cell axes (KISS-ICP's BuildLinearSystem).
 struct LinearSystem {
   Matrix6d H = Matrix6d::Zero();
   Vector6d g = Vector6d::Zero();
@@ -78,6 +78,12 @@ struct LinearSystem {
   double sum_r2 = 0;  ///< template matches' point-to-plane residuals, unweighted (RMS)
 };
 
+/// A pair: template point `i` and scan point `j`, found from the template's side or the scan's.
+struct Match {
+  int i, j;
+  bool from_template;
+};
+
 // Geman-McClure weight of a residual r (m) with scale s2 = scale^2; 1 without a kernel.
 double robustWeight(double r, double s2) {
   if (s2 <= 0) return 1.0;
@@ -85,11 +91,38 @@ double robustWeight(double r, double s2) {
   return k * k;
 }
 
-// Association both ways at pose T (Alg. 1, line 8's data term) and linearisation. A match pairs a
-// template point p (cell frame, unit normal n) with a scan point q; residual r = dir . (p - q)
-// for dir = n (and the tangents), dr/domega = (p - t) x dir, dr/dv = dir.
-LinearSystem buildLinearSystem(const Surface& model, const Surface& scan, const Pose& T, double max_distance, double s2,
-                               const IcpConfig& config, std::vector<double>& abs_r) {
+// Data association both ways at pose T (Alg. 1, line 8's data term): each template point's nearest
+// scan point, and each scan point's nearest template point (searched in the part frame), both with
+// an agreeing normal.
+void associate(const Surface& model, const Surface& scan, const Pose& T, double max_distance, const IcpConfig& config,
+               std::vector<Match>& matches) {
+  matches.clear();
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d t = T.translation();
+  for (std::size_t i = 0; i < model.points.size(); ++i) {
+    const Eigen::Vector3d n = R * model.normals[i];
+    const ScanIndex::Hit hit = scan.index.nearest(R * model.points[i] + t, max_distance, [&](int j) {
+      return n.dot(scan.normals[j]) >= config.normal_min_cos && !scan.normals[j].isZero();
+    });
+    if (hit.found()) matches.push_back({static_cast<int>(i), hit.index, true});
+  }
+  if (config.scan_weight <= 0) return;
+  const Eigen::Matrix3d Rt = R.transpose();
+  for (std::size_t j = 0; j < scan.points.size(); ++j) {
+    if (scan.normals[j].isZero()) continue;  // no normal (or not wanted): matches nothing
+    const Eigen::Vector3d ns = Rt * scan.normals[j];
+    const ScanIndex::Hit hit = model.index.nearest(Rt * (scan.points[j] - t), max_distance, [&](int i) {
+      return model.normals[i].dot(ns) >= config.normal_min_cos;
+    });
+    if (hit.found()) matches.push_back({hit.index, static_cast<int>(j), false});
+  }
+}
+
+// Linearisation of the matches at pose T. A match's residual is r = dir . (p - q) for the template
+// point p (cell frame) and the scan point q, with dir = p's normal n (and, for the template's
+// matches, its tangents); dr/domega = (p - t) x dir, dr/dv = dir.
+LinearSystem linearize(const Surface& model, const Surface& scan, const std::vector<Match>& matches, const Pose& T,
+                       double s2, const IcpConfig& config, std::vector<double>& abs_r) {
   LinearSystem sys;
   abs_r.clear();
   const Eigen::Matrix3d R = T.linear();
@@ -100,21 +133,22 @@ LinearSystem buildLinearSystem(const Surface& model, const Surface& scan, const 
     J.head<3>() = (p - t).cross(dir);
     J.tail<3>() = dir;
     const double w = weight * robustWeight(r, s2);
-    sys.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
+    sys.H.noalias() += (w * J) * J.transpose();  // fixed size: unrolled
     sys.g.noalias() += (w * r) * J;
     sys.sum_w += w;
     sys.sum_wr2 += w * r * r;
     return r;
   };
-  // Template -> scan: each template point's nearest scan point with an agreeing normal.
-  for (std::size_t i = 0; i < model.points.size(); ++i) {
-    const Point p = R * model.points[i] + t;
-    const Eigen::Vector3d n = R * model.normals[i];
-    const ScanIndex::Hit hit =
-        scan.index.nearest(p, max_distance, [&](int j) { return n.dot(scan.normals[j]) >= config.normal_min_cos; });
-    if (!hit.found()) continue;
-    const Point& q = scan.points[hit.index];
-    const double r = add(p, n, q, 1.0);
+  for (const Match& m : matches) {
+    const Point p = R * model.points[m.i] + t;
+    const Eigen::Vector3d n = R * model.normals[m.i];
+    const Point& q = scan.points[m.j];
+    const double r = add(p, n, q, m.from_template ? 1.0 : config.scan_weight);
+    abs_r.push_back(std::abs(r));
+    if (!m.from_template) {
+      ++sys.scan_matches;
+      continue;
+    }
     if (config.tangent_weight > 0) {
       // The offset along the tangent plane too (tangent_weight 1: point-to-point, the authors' metric).
       const Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
@@ -123,26 +157,8 @@ LinearSystem buildLinearSystem(const Surface& model, const Surface& scan, const 
       add(p, n.cross(t1), q, config.tangent_weight);
     }
     sys.sum_r2 += r * r;
-    abs_r.push_back(std::abs(r));
     ++sys.matches;
   }
-  // Scan -> template: each scan point's nearest template point with an agreeing normal, searched
-  // in the part frame.
-  if (config.scan_weight > 0) {
-    const Eigen::Matrix3d Rt = R.transpose();
-    for (std::size_t j = 0; j < scan.points.size(); ++j) {
-      if (scan.normals[j].isZero()) continue;  // no normal (or not wanted): matches nothing
-      const Point& q = scan.points[j];
-      const Eigen::Vector3d ns = Rt * scan.normals[j];
-      const ScanIndex::Hit hit = model.index.nearest(
-          Rt * (q - t), max_distance, [&](int i) { return model.normals[i].dot(ns) >= config.normal_min_cos; });
-      if (!hit.found()) continue;
-      const double r = add(R * model.points[hit.index] + t, R * model.normals[hit.index], q, config.scan_weight);
-      abs_r.push_back(std::abs(r));
-      ++sys.scan_matches;
-    }
-  }
-  sys.H.triangularView<Eigen::StrictlyLower>() = sys.H.transpose();
   return sys;
 }
 
@@ -196,11 +212,26 @@ RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, c
   double scale = config.kernel_scale > 0 ? std::max(config.kernel_scale, max_distance / 3) : 0.0;
   std::vector<double> abs_r;
   abs_r.reserve(model.points.size() + scan.points.size());
-  Pose T = result.T_target_source;
+  // The matches are searched again only once the template has moved by more than
+  // config.reassociate since they were (a template point's nearest voxel changes no sooner), and
+  // always before the fit is declared converged.
+  double length2 = 0;  // the template's mean squared distance from the part origin: a turn's lever
+  for (const Point& p : model.points) length2 += p.squaredNorm();
+  const double length = std::sqrt(length2 / static_cast<double>(model.points.size()));
+  std::vector<Match> matches;
+  Pose T = result.T_target_source, T_matched = T;
+  bool stale = true;
   result.status = RegistrationStatus::kMaxIterations;
   LinearSystem sys;
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
-    sys = buildLinearSystem(model, scan, T, max_distance, scale * scale, config, abs_r);
+    const bool matched_now = stale;
+    if (stale) {
+      associate(model, scan, T, max_distance, config, matches);
+      T_matched = T;
+      stale = false;
+      ++result.associations;
+    }
+    sys = linearize(model, scan, matches, T, scale * scale, config, abs_r);
     result.iterations = iteration;
     result.correspondences = sys.matches;
     result.scan_matches = sys.scan_matches;
@@ -244,8 +275,14 @@ RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, c
     if (omega.norm() > 0) T.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()) * T.linear();
     T.translation() += delta.tail<3>();
     if (delta.tail<3>().norm() < config.convergence_translation && omega.norm() < config.convergence_rotation) {
-      result.status = RegistrationStatus::kConverged;
-      break;
+      if (matched_now) {
+        result.status = RegistrationStatus::kConverged;
+        break;
+      }
+      stale = true;  // converged on older matches: search them again at this pose
+    } else if (translationDistance(T, T_matched) + length * rotationAngle(T.linear(), T_matched.linear()) >
+               config.reassociate) {
+      stale = true;
     }
   }
   T.linear() = orthonormalized(T.linear());

@@ -39,4 +39,17 @@ ScanIndex::ScanIndex(const Cloud& points, double cell, std::size_t max_cells) : 
   }
 }
 
+bool ScanIndex::anyInNeighbourCells(const Point& q) const {
+  if (points_.empty() || !q.allFinite()) return false;
+  const Eigen::Array3i home = ((q - origin_).array() / cell_).floor().cast<int>();
+  const Eigen::Array3i a = (home - 1).max(0), b = (home + 1).min(dims_.array() - 1);
+  for (int z = a.z(); z <= b.z(); ++z)
+    for (int y = a.y(); y <= b.y(); ++y)
+      for (int x = a.x(); x <= b.x(); ++x) {
+        const std::size_t c = (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x;
+        if (start_[c + 1] > start_[c]) return true;
+      }
+  return false;
+}
+
 }  // namespace depowder::tracker

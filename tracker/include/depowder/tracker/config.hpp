@@ -39,6 +39,8 @@ struct IcpConfig {
                                    ///< the authors' metric; 0: point-to-plane)
   double scan_weight = 1;          ///< weight of the scan -> template matches (0: template -> scan only)
   double max_step_rotation = 0.1;  ///< rad per iteration (translation steps: half the correspondence distance)
+  double reassociate = 0.001;      ///< m: the matches are searched again once the template moved this far (and
+                                   ///< before convergence is declared); 0 = every iteration
   int min_correspondences = 12;    ///< fewer: the fit is refused (6 unknowns; keep well above)
 };
 

@@ -53,7 +53,8 @@ struct RegistrationResult {
   RegistrationStatus status = RegistrationStatus::kInvalidInput;
   std::string reason;                       ///< why, when not converged
   Pose T_target_source = Pose::Identity();  ///< always a valid rigid transform
-  int iterations = 0;                       ///< association + solve rounds
+  int iterations = 0;                       ///< Gauss-Newton steps
+  int associations = 0;                     ///< of them, after searching the matches again
   int correspondences = 0;                  ///< template points matched in the last round
   int scan_matches = 0;                     ///< scan points matched to the template in the last round
   double inlier_ratio = 0;                  ///< correspondences / template points

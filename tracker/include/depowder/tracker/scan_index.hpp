@@ -33,6 +33,9 @@ class ScanIndex {
   /// (asked only of points nearer than the best so far).
   template <class Accept>
   Hit nearest(const Point& q, double radius, const Accept& accept) const;
+  /// Whether q's cell or one of its 26 neighbours holds a point: every point within one cell of q
+  /// is found (and some up to two cells away). A cheap test, no distances.
+  bool anyInNeighbourCells(const Point& q) const;
   /// Calls f(index, squared distance) for every point within `radius` of q.
   template <class F>
   void forEachWithin(const Point& q, double radius, const F& f) const;
