@@ -64,7 +64,7 @@ class EveryPart : public ::testing::TestWithParam<std::string> {};
 
 // Dug out (100 % visible), pushed 0.5 mm and 0.25 deg a frame, from 3 mm / 2 deg off: every
 // frame is tracked and the last estimate is within 5.5 deg / 2 mm of the truth (measured:
-// 1.7 deg, 0.9 mm at most). What remains is mostly yaw: the cup's and the owl's spin are seen
+// 2.0 deg, 1.0 mm at most). What remains is mostly yaw: the cup's and the owl's spin are seen
 // only through the handle and the ears, and the filter weighs each frame's small evidence
 // against what it already holds, so they follow with a lag.
 TEST_P(EveryPart, TracksFromAPerturbedStart) {
@@ -173,8 +173,8 @@ TEST(PartTracker, CuUpdatesTheTemplateOnlyWhenEq1Fires) {
 
 // A still part over 300 noisy frames (10 s): the cup's spin about its axis is seen only
 // through the handle. Registered frame by frame on its own (filter.data_inflation = 0) the noise
-// turns it a little every frame and the turns add up (measured: 4.1 deg at worst); the filter
-// carries what earlier frames showed, so the estimate stays put (0.7 deg at worst).
+// turns it a little every frame and the turns add up (measured: 3.5 deg at worst); the filter
+// carries what earlier frames showed, so the estimate stays put (0.6 deg at worst).
 TEST(PartTracker, StillPartDoesNotWanderWithTheNoise) {
   const Sequence s = makeSequence("cup", 0.5, 300, 0.0, 0.0, 21);
   TrackerConfig unfiltered = defaults();
@@ -199,7 +199,7 @@ TEST(PartTracker, StillPartDoesNotWanderWithTheNoise) {
 // The half-buried cup pushed sideways 0.67 mm a frame (2 cm/s at 30 fps) for 10 cm: the
 // filter's process noise lets a part in powder slide but hardly tip, so the weakly seen roll
 // that a slide looks like to the visible band stays put and the estimate slides with the cup
-// (measured: 0.7 deg / 1.7 mm at the end; with the motion prior and the hold that the filter
+// (measured: 0.6 deg / 1.6 mm at the end; with the motion prior and the hold that the filter
 // replaced, 53 deg / 47 mm).
 TEST(PartTracker, FollowsAPushedHalfBuriedCup) {
   const Sequence s = makeSequence("cup", 0.5, 150, 0.1 / 150, 0.0, 5);
@@ -219,8 +219,8 @@ TEST(PartTracker, FollowsAPushedHalfBuriedCup) {
 // The refit (TrackerConfig::refit_margin): the dug-out pipe (eta 1) with the tracker's pose
 // turned 30 deg about its upright leg, as after a fall. Alg. 2 at that pose leaves the elbow's
 // leg out of the template, the filter keeps the turn, and ICP alone stays wrong (measured:
-// 28.7 deg after 15 frames); the refit fits P_cad again where the cameras look and comes back to
-// within 4 deg (measured 1.8 deg, one refit).
+// 29.4 deg after 15 frames); the refit fits P_cad again where the cameras look and comes back to
+// within 4 deg (measured 1.1 deg, one refit).
 TEST(PartTracker, RefitRecoversAWrongPoseOfADugOutPart) {
   const Sequence s = makeSequence("pipe", 1.0, 15, 0.0, 0.0, 11);
   Pose T_wrong = s.truth[0];
