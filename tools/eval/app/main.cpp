@@ -26,14 +26,15 @@ using namespace depowder::eval;
 namespace {
 
 const char* kUsage =
-    "usage: depowder-eval static|speed|report [options]\n"
+    "usage: depowder-eval static|speed|moving|report [options]\n"
     "  static   Table I: a still part at each visibility, the nozzle circling it; mean errors\n"
     "  speed    Fig. 10: linear actuator and turntable at increasing speed; highest speed tracked\n"
-    "  report   static + speed for the five default parts and three methods -> DIR/results.md + PNGs\n"
 #ifdef DEPOWDER_EVAL_MOVING
     "  moving   Table II: the nozzle pushes the part to the box wall from seeded contact points\n"
     "  report   static + speed + moving for the five default parts and three methods\n"
+    "           -> DIR/results.md + PNGs\n"
 #else
+    "  report   static + speed for the five default parts and three methods -> DIR/results.md + PNGs\n"
     "  (moving, Table II, needs the simulator's rigid-body physics, which this build does not have)\n"
 #endif
     "options:\n"

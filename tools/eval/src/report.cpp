@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
@@ -576,6 +577,9 @@ std::string reportMarkdown(const ReportInputs& in, const std::vector<std::string
 
 std::vector<std::string> writeReport(const ReportInputs& in, const std::string& dir) {
   std::vector<std::string> images, written;
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);  // --out may name a directory not made yet
+  if (ec) throw JsonError("cannot create the directory " + dir + ": " + ec.message());
   if (haveGnuplot()) {
     if (!in.static_doc.isNull() && in.static_doc.at("rows").size() > 0 && plotStatic(in.static_doc, dir))
       images.push_back("eval_static.png");
