@@ -73,8 +73,17 @@ PosePrior PartTracker::predicted() const {
   Vector6d q;
   q << tilt * tilt, tilt * tilt, yaw * yaw, f.q_xy * f.q_xy, f.q_xy * f.q_xy, f.q_z * f.q_z;
   if (!moving_) q.head<3>() *= f.still_turn * f.still_turn;
+  // The part turns about the middle of what the cameras see of it, not about its origin: in
+  // PosePrior's coordinates a turn w about c also moves the origin by w x (t - c).
+  Matrix6d M = Matrix6d::Identity();
+  if (!visible_points_.empty()) {
+    Point centre = Point::Zero();
+    for (const Point& p : visible_points_) centre += p;
+    const Eigen::Vector3d arm = T_cell_part_.linear() * (-centre / static_cast<double>(visible_points_.size()));
+    M.block<3, 3>(3, 0) << 0, arm.z(), -arm.y(), -arm.z(), 0, arm.x(), arm.y(), -arm.x(), 0;  // -[arm]x
+  }
   Matrix6d covariance = information_.inverse();
-  covariance.diagonal() += q;
+  covariance += M * q.asDiagonal() * M.transpose();
   PosePrior prior;
   prior.T_cell_part = T_cell_part_;
   prior.information = covariance.inverse();
