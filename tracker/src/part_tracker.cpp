@@ -80,7 +80,7 @@ PosePrior PartTracker::predicted() const {
     Point centre = Point::Zero();
     for (const Point& p : visible_points_) centre += p;
     const Eigen::Vector3d arm = T_cell_part_.linear() * (-centre / static_cast<double>(visible_points_.size()));
-    M.block<3, 3>(3, 0) << 0, arm.z(), -arm.y(), -arm.z(), 0, arm.x(), arm.y(), -arm.x(), 0;  // -[arm]x
+    for (int k = 0; k < 3; ++k) M.block<3, 1>(3, k) = Eigen::Vector3d::Unit(k).cross(arm);  // t - c
   }
   Matrix6d covariance = information_.inverse();
   covariance += M * q.asDiagonal() * M.transpose();

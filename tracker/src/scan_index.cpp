@@ -25,7 +25,7 @@ ScanIndex::ScanIndex(const Cloud& points, double cell, std::size_t max_cells) : 
   start_.assign(n_cells + 1, 0);
   for (std::size_t i = 0; i < points_.size(); ++i) {
     const Eigen::Vector3i c = ((points_[i] - origin_) / cell_).array().floor().cast<int>().min(dims_.array() - 1);
-    cell_of[i] = static_cast<std::uint32_t>((static_cast<std::size_t>(c.z()) * dims_.y() + c.y()) * dims_.x() + c.x());
+    cell_of[i] = static_cast<std::uint32_t>(cellIndex(c.x(), c.y(), c.z()));
     ++start_[cell_of[i] + 1];
   }
   for (std::size_t c = 0; c < n_cells; ++c) start_[c + 1] += start_[c];
@@ -46,7 +46,7 @@ bool ScanIndex::anyInNeighbourCells(const Point& q) const {
   for (int z = a.z(); z <= b.z(); ++z)
     for (int y = a.y(); y <= b.y(); ++y)
       for (int x = a.x(); x <= b.x(); ++x) {
-        const std::size_t c = (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x;
+        const std::size_t c = cellIndex(x, y, z);
         if (start_[c + 1] > start_[c]) return true;
       }
   return false;

@@ -50,6 +50,10 @@ class ScanIndex {
   /// Calls visit(k) for the points sorted_[k] in the cells within `radius` of q.
   template <class Visit>
   void visitCells(const Point& q, double radius, const Visit& visit) const;
+  /// Index of cell (x, y, z) into start_.
+  std::size_t cellIndex(int x, int y, int z) const {
+    return (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x;
+  }
 
   Cloud points_;                        ///< copy of the input (original order)
   Cloud sorted_;                        ///< the same points in cell order
@@ -69,7 +73,7 @@ void ScanIndex::visitCells(const Point& q, double radius, const Visit& visit) co
   for (int z = a.z(); z <= b.z(); ++z)
     for (int y = a.y(); y <= b.y(); ++y)
       for (int x = a.x(); x <= b.x(); ++x) {
-        const std::size_t c = (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x;
+        const std::size_t c = cellIndex(x, y, z);
         for (std::uint32_t k = start_[c]; k < start_[c + 1]; ++k) visit(k);
       }
 }
@@ -81,7 +85,6 @@ ScanIndex::Hit ScanIndex::nearest(const Point& q, double radius, const Accept& a
   const Eigen::Array3d rel = (q - origin_).array() / cell_;  // q in cell units
   double best = radius * radius;
   int best_k = -1;
-  auto index = [&](int x, int y, int z) { return (static_cast<std::size_t>(z) * dims_.y() + y) * dims_.x() + x; };
   auto scan = [&](std::size_t c) {
     for (std::uint32_t k = start_[c]; k < start_[c + 1]; ++k) {
       const double d2 = (sorted_[k] - q).squaredNorm();
@@ -92,7 +95,7 @@ ScanIndex::Hit ScanIndex::nearest(const Point& q, double radius, const Accept& a
   // and the search box below then shrinks to the distance found.
   const Eigen::Array3i home = rel.floor().cast<int>();
   const bool home_inside = (home >= 0).all() && (home < dims_.array()).all();
-  if (home_inside) scan(index(home.x(), home.y(), home.z()));
+  if (home_inside) scan(cellIndex(home.x(), home.y(), home.z()));
   const double reach = std::sqrt(best) / cell_;
   const Eigen::Array3i a = (rel - reach).floor().cast<int>().max(0);
   const Eigen::Array3i b = (rel + reach).floor().cast<int>().min(dims_.array() - 1);
@@ -105,7 +108,7 @@ ScanIndex::Hit ScanIndex::nearest(const Point& q, double radius, const Accept& a
         const double gx = x > rel.x() ? x - rel.x() : (rel.x() > x + 1 ? rel.x() - (x + 1) : 0.0);
         // Skip a cell whose box is farther than the best match so far.
         if ((gx * gx + gy * gy + gz * gz) * cell_ * cell_ > best) continue;
-        scan(index(x, y, z));
+        scan(cellIndex(x, y, z));
       }
     }
   }
