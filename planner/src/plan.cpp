@@ -62,7 +62,9 @@ Waypoint here(const robot::ArmConfig& arm, const robot::Joints& q) {
 /// If the arm is in collision now because a part moved into the nozzle's margin (the paper's
 /// toppling pipe), the way out: straight away from that part, horizontally, every edge_step,
 /// while nothing else is hit and the nozzle's distance to the part never shrinks, until the
-/// arm is clear. Returns the escaped joints (q_now if nothing to do) or nullopt with `why`.
+/// arm is clear; if that way is blocked (another part, the arm's reach, a part that wraps
+/// round the nozzle, or the nozzle right above the part), straight up under the same checks.
+/// Returns the escaped joints (q_now if nothing to do) or nullopt with `why`.
 std::optional<robot::Joints> escape(const CollisionWorld& world, const robot::Joints& q_now,
                                     const PlannerConfig& config, Tool tool, double speed, std::vector<Waypoint>& out,
                                     std::string& why) {
@@ -78,56 +80,74 @@ std::optional<robot::Joints> escape(const CollisionWorld& world, const robot::Jo
     return std::nullopt;
   }
   const robot::ArmConfig& arm = world.arm();
+  const std::string& name = world.part(part).name();
   const AxisDistanceField field(world.part(part).mesh(), world.partPose(part));
   const double length = world.nozzle().length;
   const Pose T0 = robot::forwardNozzle(arm, q_now);
   const Point tip0 = T0.translation();
-  const auto d0 = field.query(tip0.x(), tip0.y(), tip0.z(), tip0.z() + length, 1.0);
-  Eigen::Vector3d dir = d0.cut_off ? Eigen::Vector3d::Zero() : Eigen::Vector3d(d0.on_axis - d0.on_part);
-  dir.z() = 0;
-  if (dir.norm() < 1e-9) dir = tip0 - world.partPose(part).translation();
-  dir.z() = 0;
-  if (dir.norm() < 1e-9) {
-    why = "the nozzle is on the axis of " + world.part(part).name();
-    return std::nullopt;
-  }
-  dir.normalize();
+  const auto distance = [&](const Point& tip) {
+    return field.query(tip.x(), tip.y(), tip.z(), tip.z() + length, 1.0);
+  };
+  const auto d0 = distance(tip0);
   const double max_move = config.vacuum.standoff + config.collision.lost_margin;
   const int steps = static_cast<int>(std::ceil(max_move / config.collision.edge_step));
-  robot::Joints q = q_now;
-  double d_prev = d0.distance;
-  for (int k = 1; k <= steps; ++k) {
-    Pose T = T0;
-    T.translation() = tip0 + dir * (k * config.collision.edge_step);
-    const auto next = robot::inverseNozzle(arm, T, q);
-    double jump = 0;
-    if (next)
-      for (int i = 0; i < 6; ++i) jump = std::max(jump, std::abs((*next)[i] - q[i]));
-    if (!next || jump > config.collision.max_joint_step) {
-      why = "no IK on the way out of " + world.part(part).name();
-      return std::nullopt;
+
+  // Waypoints every edge_step along `dir` until the arm is clear; false with `blocked` if not.
+  std::vector<Waypoint> way;
+  const auto leave = [&](const Eigen::Vector3d& dir, robot::Joints& q, std::string& blocked) {
+    way.clear();
+    q = q_now;
+    double d_prev = d0.distance;
+    for (int k = 1; k <= steps; ++k) {
+      Pose T = T0;
+      T.translation() = tip0 + dir * (k * config.collision.edge_step);
+      const auto next = robot::inverseNozzle(arm, T, q);
+      double jump = 0;
+      if (next)
+        for (int i = 0; i < 6; ++i) jump = std::max(jump, std::abs((*next)[i] - q[i]));
+      if (!next || jump > config.collision.max_joint_step) {
+        blocked = "no IK on the way";
+        return false;
+      }
+      if (const Contact other = world.checkArm(*next, CheckOptions(false, true, part))) {
+        blocked = "it would hit " + other.what;
+        return false;
+      }
+      const double d = distance(T.translation()).distance;
+      if (d < d_prev - 1e-4) {
+        blocked = "the nozzle would come closer to it";
+        return false;
+      }
+      d_prev = d;
+      q = *next;
+      Waypoint w;
+      w.T_cell_nozzle = T;
+      w.tool = tool;
+      w.speed = speed;
+      w.q = q;
+      way.push_back(w);
+      if (!world.checkArm(q)) return true;
     }
-    if (const Contact other = world.checkArm(*next, CheckOptions(false, true, part))) {
-      why = "leaving " + world.part(part).name() + " would hit " + other.what;
-      return std::nullopt;
-    }
-    const auto d =
-        field.query(T.translation().x(), T.translation().y(), T.translation().z(), T.translation().z() + length, 1.0);
-    if (d.distance < d_prev - 1e-4) {
-      why = "no way straight out of " + world.part(part).name();
-      return std::nullopt;
-    }
-    d_prev = d.distance;
-    q = *next;
-    Waypoint w;
-    w.T_cell_nozzle = T;
-    w.tool = tool;
-    w.speed = speed;
-    w.q = q;
-    out.push_back(w);
-    if (!world.checkArm(q)) return q;
+    blocked = "still too close after " + std::to_string(static_cast<int>(std::lround(1000 * max_move))) + " mm";
+    return false;
+  };
+
+  Eigen::Vector3d away = d0.cut_off ? Eigen::Vector3d::Zero() : Eigen::Vector3d(d0.on_axis - d0.on_part);
+  away.z() = 0;
+  if (away.norm() < 1e-9) away = tip0 - world.partPose(part).translation();
+  away.z() = 0;
+  std::string sideways = "the nozzle is above it";
+  robot::Joints q;
+  if (away.norm() >= 1e-9 && leave(away.normalized(), q, sideways)) {
+    out.insert(out.end(), way.begin(), way.end());
+    return q;
   }
-  why = "still too close to " + world.part(part).name() + " after moving " + std::to_string(max_move) + " m out";
+  std::string upwards;
+  if (leave(Eigen::Vector3d::UnitZ(), q, upwards)) {
+    out.insert(out.end(), way.begin(), way.end());
+    return q;
+  }
+  why = "no way out of " + name + " (sideways: " + sideways + "; up: " + upwards + ")";
   return std::nullopt;
 }
 

@@ -307,6 +307,39 @@ TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFrom) {
   EXPECT_TRUE(c.clean()) << c.first;
 }
 
+TEST_F(CellTest, PartRisingUnderTheNozzleIsEscapedUpwards) {
+  // The nozzle hovers right above the cube's centre when the cube rises into its margins (the
+  // powder under it gave way upwards): there is no horizontal "away", so the nozzle lifts.
+  const double top = T_left.translation().z() + 0.03;
+  const double gap = 0.004;  // tip above the top face: inside the 2.5 + 5 mm margins
+  ASSERT_LT(gap, config.nozzle.margin + config.collision.tracking_margin);
+  const Point tip(T_left.translation().x(), T_left.translation().y(), top + gap);
+  const auto q = robot::inverseNozzle(*arm, nozzleDown(*arm, tip), arm->q_home);
+  ASSERT_TRUE(q);
+  RobotInput r;
+  r.utime = utime;
+  r.q = *q;
+  ASSERT_TRUE(planner->onRobot(r).ok());
+  frame("left", T_left, Phase::kAirBlast, 0.0);
+  auto p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
+  EXPECT_NE(p->reason.find("escaped"), std::string::npos) << p->reason;
+  // Straight up, edge_step by edge_step, until out of the margins; nothing in the plan touches a part.
+  int up = 0;
+  Point last = tip;
+  for (const Waypoint& w : p->waypoints) {  // the escape: then the raster's entry begins
+    const Eigen::Vector3d step = w.T_cell_nozzle.translation() - last;
+    if (step.head<2>().norm() > 1e-9 || std::abs(step.z() - config.collision.edge_step) > 1e-9) break;
+    last = w.T_cell_nozzle.translation();
+    ++up;
+  }
+  EXPECT_GE(up, 1);
+  EXPECT_GE(last.z() - top, config.nozzle.margin + config.collision.tracking_margin);
+  EXPECT_LE(last.z() - top, config.nozzle.margin + config.collision.tracking_margin + config.collision.edge_step);
+  const CheckReport c = check(*p, T_left, T_right);
+  EXPECT_TRUE(c.clean()) << c.first;
+}
+
 TEST_F(CellTest, RunningPlanIsRefreshedWithNewerFrames) {
   // The driver stops a plan older than robot.plan_max_age: a plan nothing changed is re-sent
   // from the waypoint the arm is heading to, stamped with the newest frame.
