@@ -16,6 +16,7 @@
 #include "depowder/node/convert.hpp"
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/sim_truth_t.hpp"
+#include "depowder/waypoint_t.hpp"
 #include "tracker_node.hpp"
 
 using namespace depowder;
@@ -31,8 +32,10 @@ int usage(const std::string& error = "") {
          "  depowder-eval's --set: icp.tangent_weight=0) and prints, every S seconds of the run\n"
          "  (default 5; 0: every frame), each part's status and its error against SIM_TRUTH (with the\n"
          "  error's rotation axis and translation in the part frame), the fit's inlier ratio and RMS, P_cad against\n"
-         "  the cameras' lines of sight (sight seen/in front/hidden samples) and REFIT when the refit\n"
-         "  replaced the pose; then the error percentiles over the frames that reported TRACKING.\n"
+         "  the cameras' lines of sight (sight seen/in front/hidden samples), the nozzle's tool and tip\n"
+         "  (cell axes, from the part's origin), REFIT when the refit\n"
+         "  replaced the pose and TEMPLATE when the template was derived again (Alg. 1, line 13); then\n"
+         "  the error percentiles over the frames that reported TRACKING.\n"
          "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
          "  no truth.\n";
   return error.empty() ? 0 : 2;
@@ -92,6 +95,8 @@ int main(int argc, char** argv) {
     if (!log.good()) throw std::runtime_error("cannot read LCM log '" + log_path + "'");
     std::map<std::string, Pose> truth;  // the newest SIM_TRUTH at or before the frame
     bool have_truth = false;
+    Point nozzle = Point::Constant(NAN);  // its tip, cell frame, and its tool at the newest SIM_TRUTH
+    int tool = 0;
     std::int64_t t0 = -1, frames = 0, bad = 0;
     double next_print = from;
     std::map<std::string, std::vector<double>> rot, trans;
@@ -107,6 +112,8 @@ int main(int argc, char** argv) {
         }
         for (const auto& p : m.parts)
           if (const auto T = node::fromMsg(p.T_cell_part)) truth[p.part] = *T;
+        if (const auto T = node::fromMsg(m.T_cell_nozzle)) nozzle = T->translation();
+        tool = m.tool;
         have_truth = true;
       } else if (e->channel == prefix + "POINTS") {
         point_cloud_t m;
@@ -142,14 +149,18 @@ int main(int argc, char** argv) {
             const Pose E = truth_it->second.inverse(Eigen::Isometry) * *T;
             const Eigen::AngleAxisd aa(E.linear());
             const Eigen::Vector3d err_mm = 1000 * E.translation();
+            const Eigen::Vector3d nozzle_mm = 1000 * (nozzle - truth_it->second.translation());  // from the part
             std::printf(
                 "%7.2f s  %-10s %-8s eta %.3f  err %6.2f deg about (%+.2f %+.2f %+.2f) %5.2f cm (%+.1f %+.1f %+.1f mm) "
                 " "
-                "inliers %.2f rms %.2f mm  sight %d/%d/%d%s  %s\n",
+                "inliers %.2f rms %.2f mm  sight %d/%d/%d  nozzle %s %+.0f %+.0f %+.0f mm%s%s  %s\n",
                 t, p.part.c_str(), status.c_str(), p.eta, dr, aa.axis().x(), aa.axis().y(), aa.axis().z(), dt,
                 err_mm.x(), err_mm.y(), err_mm.z(), p.inlier_ratio, 1e3 * p.fitness, result ? result->sight.seen : 0,
                 result ? result->sight.in_front : 0, result ? result->sight.hidden : 0,
-                result && result->refit ? " REFIT" : "", p.status_reason.c_str());
+                tool == waypoint_t::TOOL_AIR ? "air" : tool == waypoint_t::TOOL_VACUUM ? "vac" : "off", nozzle_mm.x(),
+                nozzle_mm.y(), nozzle_mm.z(),
+                result && result->refit ? " REFIT" : "", result && result->template_updated ? " TEMPLATE" : "",
+                p.status_reason.c_str());
           }
         }
       }
