@@ -52,6 +52,8 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   const node::YamlReader visibility = r.child("visibility");
   visibility.read("powder_radius", c.visibility.powder_radius, 0.0, 0.2);
   visibility.read("powder_margin", c.visibility.powder_margin, -0.05, 0.05);
+  visibility.read("cover", c.visibility.cover, 0.0, 0.02);
+  visibility.read("powder_scan_margin", c.visibility.powder_scan_margin, 0.0, 0.05);
   visibility.finish();
   const node::YamlReader filter = r.child("filter");
   filter.read("data_inflation", c.filter.data_inflation, 0.0, 1e6);

@@ -58,6 +58,11 @@ std::string validate(const TrackerConfig& c) {
     return "visibility.powder_radius must be in [0, 0.2] m (0 = no powder test)";
   if (!std::isfinite(c.visibility.powder_margin) || std::abs(c.visibility.powder_margin) > 0.05)
     return "visibility.powder_margin must be in [-0.05, 0.05] m";
+  if (!std::isfinite(c.visibility.cover) || c.visibility.cover < 0 || c.visibility.cover > 0.02)
+    return "visibility.cover must be in [0, 0.02] m";
+  if (!std::isfinite(c.visibility.powder_scan_margin) || c.visibility.powder_scan_margin < 0 ||
+      c.visibility.powder_scan_margin > 0.05)
+    return "visibility.powder_scan_margin must be in [0, 0.05] m";
   if (!(std::isfinite(c.filter.data_inflation) && c.filter.data_inflation >= 0))
     return "filter.data_inflation must be >= 0 (0 = off)";
   if (!positive(c.filter.q_yaw_deg) || !positive(c.filter.q_tilt_deg) || !positive(c.filter.q_xy) ||
@@ -103,6 +108,8 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"icp.scan_weight", &c.icp.scan_weight},
                                               {"visibility.powder_radius", &c.visibility.powder_radius},
                                               {"visibility.powder_margin", &c.visibility.powder_margin},
+                                              {"visibility.cover", &c.visibility.cover},
+                                              {"visibility.powder_scan_margin", &c.visibility.powder_scan_margin},
                                               {"icp.max_step_rotation", &c.icp.max_step_rotation},
                                               {"icp.reassociate", &c.icp.reassociate},
                                               {"filter.data_inflation", &c.filter.data_inflation},

@@ -237,10 +237,11 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
 
   // Alg. 1, lines 8-9: ICP(P_tmpl, P_i) with T_{i-1} as the prior. Registering the part-frame
   // template from T_{i-1} gives T_i = T_{i,i-1} x T_{i-1} directly. ICP uses the template points
-  // the cameras can see now: facing one of them, not under the powder around the part.
+  // the cameras can see now: facing one of them, not under the powder around the part, and no
+  // upward face with powder straight over it.
   t0 = Clock::now();
   visibleTemplate(icp_points_, icp_normals_, T_cell_part_, viewpoints, powder_, config_.visibility.powder_margin,
-                  visible_points_, visible_normals_);
+                  &grid, config_.visibility.cover, visible_points_, visible_normals_);
   if (visible_points_.empty()) return finish(refuse(r, "no template point faces a camera above the powder"));
   const ScanIndex model_index(visible_points_, max_distance);
   // Normals only where ICP can use them: scan points in the template's grid cells or next to them
@@ -250,7 +251,18 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   for (std::size_t j = 0; j < crop_.size(); ++j)
     near_template_[j] = model_index.anyInNeighbourCells(T_part_cell * crop_[j]);
   crop_normals_ = scanNormals(grid, viewpoints, config_.icp.normal_radius, near_template_);
-  const Surface scan_surface{crop_, crop_normals_, grid};
+  // Not in the paper: while the part is still, an upward-facing scan point at the level of the
+  // powder around it is taken for powder. Template points still pair with it (their own powder
+  // test decides), but it does not pull the template: every powder point over a face buried a few
+  // mm deep would draw it up (in the default cell the pipe rose 1 cm while the vacuum lowered the
+  // powder beside it). A pushed part's own faces near the powder are needed to follow it.
+  scan_pulls_.assign(crop_.size(), 1);
+  if (!powder_.empty() && config_.visibility.powder_scan_margin > 0 && !moving_)
+    for (std::size_t j = 0; j < crop_.size(); ++j)
+      if (crop_normals_[j].z() >= config_.icp.normal_min_cos &&
+          crop_[j].z() < powder_.at(crop_[j].head<2>()) + config_.visibility.powder_scan_margin)
+        scan_pulls_[j] = 0;
+  const Surface scan_surface{crop_, crop_normals_, grid, &scan_pulls_};
   const bool filter = config_.filter.data_inflation > 0;
   const PosePrior prior = filter ? predicted() : PosePrior{};
   const RegistrationResult reg = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,

@@ -110,6 +110,7 @@ void associate(const Surface& model, const Surface& scan, const Pose& T, double 
   const Eigen::Matrix3d Rt = R.transpose();
   for (std::size_t j = 0; j < scan.points.size(); ++j) {
     if (scan.normals[j].isZero()) continue;  // no normal (or not wanted): matches nothing
+    if (scan.pulls && !(*scan.pulls)[j]) continue;
     const Eigen::Vector3d ns = Rt * scan.normals[j];
     const ScanIndex::Hit hit = model.index.nearest(Rt * (scan.points[j] - t), max_distance, [&](int i) {
       return model.normals[i].dot(ns) >= config.normal_min_cos;

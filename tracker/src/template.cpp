@@ -86,9 +86,20 @@ double PowderHeights::at(const Eigen::Vector2d& xy) const {
 
 void visibleTemplate(const Cloud& points, const Cloud& normals, const Pose& T_cell_part,
                      const std::vector<Point>& viewpoints, const PowderHeights& powder, double margin,
-                     Cloud& out_points, Cloud& out_normals) {
+                     const ScanIndex* scan, double cover, Cloud& out_points, Cloud& out_normals) {
   out_points.clear();
   out_normals.clear();
+  constexpr double kUp = 0.7071, kPlan = 0.004, kDepth = 0.012;  // 45 deg; the column above a point
+  const Eigen::Vector3d mid(0, 0, cover + 0.5 * kDepth);
+  const double reach = std::hypot(0.5 * kDepth, kPlan);
+  auto covered = [&](const Point& p) {
+    bool found = false;
+    scan->forEachWithin(p + mid, reach, [&](int j, double) {
+      const Eigen::Vector3d d = scan->point(j) - p;
+      found = found || (d.head<2>().squaredNorm() < kPlan * kPlan && d.z() >= cover && d.z() <= cover + kDepth);
+    });
+    return found;
+  };
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Point p = T_cell_part * points[i];
     const Eigen::Vector3d n = T_cell_part.linear() * normals[i];
@@ -96,6 +107,7 @@ void visibleTemplate(const Cloud& points, const Cloud& normals, const Pose& T_ce
     for (const Point& eye : viewpoints) faces = faces || n.dot(eye - p) > 0;
     if (!faces) continue;
     if (!powder.empty() && p.z() < powder.at(p.head<2>()) + margin) continue;
+    if (scan && cover > 0 && n.z() >= kUp && covered(p)) continue;
     out_points.push_back(points[i]);
     out_normals.push_back(normals[i]);
   }

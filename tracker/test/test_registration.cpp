@@ -1,6 +1,6 @@
 // registerSurfaces: recovers known rigid motions of the default parts, skips a thin wall's other
 // face, keeps a prior where the scan sees nothing, orients scan normals to the camera, refuses bad
-// input with a reason, and never returns an invalid pose.
+// input with a reason, and never returns an invalid pose. visibleTemplate's cover test.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -127,6 +127,56 @@ TEST(Registration, PointsWithDisagreeingNormalsAreNotMatched) {
       registerSurfaces(cad.points, cad.normals, cad.points, flipped, Pose::Identity(), 0.01, config);
   EXPECT_EQ(without.status, RegistrationStatus::kConverged);
   EXPECT_EQ(without.correspondences, static_cast<int>(cad.points.size()));
+}
+
+// Scan points marked as not pulling (Surface::pulls: the tracker's powder by the part) are
+// matched by the template's points but are not matched to the template themselves.
+TEST(Registration, ScanPointsThatDoNotPullAreMatchedOneWayOnly) {
+  Cloud patch, up;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j) patch.emplace_back(0.005 * i, 0.005 * j, 0.0), up.emplace_back(0, 0, 1);
+  Cloud powder = patch;
+  for (Point& p : powder) p.z() += 0.003;
+  const ScanIndex model_index(patch, 0.01), scan_index(powder, 0.01);
+  const std::vector<std::uint8_t> all(powder.size(), 1), none(powder.size(), 0);
+  const IcpConfig config = oneOff(1, 1e-9, 1e-9);
+  const RegistrationResult both = registerSurfaces({patch, up, model_index}, {powder, up, scan_index, &all},
+                                                   Pose::Identity(), 0.01, config);
+  const RegistrationResult one_way = registerSurfaces({patch, up, model_index}, {powder, up, scan_index, &none},
+                                                      Pose::Identity(), 0.01, config);
+  EXPECT_EQ(both.correspondences, 100);
+  EXPECT_EQ(both.scan_matches, 100);
+  EXPECT_EQ(one_way.correspondences, 100);
+  EXPECT_EQ(one_way.scan_matches, 0);
+}
+
+// visibleTemplate's cover test: an upward face with a scan point 3-15 mm straight over it is under
+// powder; an upward face level with the scan, a side face, and a face whose scan point is higher
+// than that column are kept.
+TEST(VisibleTemplate, UpwardFaceUnderPowderIsLeftOut) {
+  const Cloud points{{0, 0, 0}, {0.05, 0, 0}, {0.1, 0, 0}, {0.15, 0, 0}};
+  const Cloud normals{{0, 0, 1}, {0, 0, 1}, {1, 0, 0}, {0, 0, 1}};
+  const Cloud scan{{0.001, 0, 0.005}, {0.05, 0.001, 0.0005}, {0.1, 0, 0.005}, {0.15, 0, 0.02}};
+  const ScanIndex index(scan, 0.01);
+  const std::vector<Point> eyes{{0.5, 0, 1}};
+  Cloud out, out_n;
+  visibleTemplate(points, normals, Pose::Identity(), eyes, PowderHeights(), 0, &index, 0.003, out, out_n);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[0], points[1]);
+  EXPECT_EQ(out[1], points[2]);
+  EXPECT_EQ(out[2], points[3]);
+  EXPECT_EQ(out_n[1], normals[2]);
+  visibleTemplate(points, normals, Pose::Identity(), eyes, PowderHeights(), 0, &index, 0.0, out, out_n);
+  EXPECT_EQ(out.size(), 4u);  // cover 0: no cover test
+  visibleTemplate(points, normals, Pose::Identity(), eyes, PowderHeights(), 0, nullptr, 0.003, out, out_n);
+  EXPECT_EQ(out.size(), 4u);  // no scan given
+  // The same at a pose: the test is in the cell frame.
+  const Pose T = makePoseRpy({0.2, 0.1, 0.05}, 0, 0, 0.5);
+  Cloud moved = scan;
+  for (Point& p : moved) p = T * p;
+  const ScanIndex moved_index(moved, 0.01);
+  visibleTemplate(points, normals, T, {T * eyes[0]}, PowderHeights(), 0, &moved_index, 0.003, out, out_n);
+  EXPECT_EQ(out.size(), 3u);
 }
 
 // A prior holds what the scan cannot see: a flat square's slide in its own plane. Across the

@@ -80,6 +80,8 @@ TEST(TrackerOptions, DefaultCellHasTheLibraryDefaults) {
   EXPECT_EQ(o.tracker.icp.scan_weight, d.icp.scan_weight);
   EXPECT_EQ(o.tracker.visibility.powder_radius, d.visibility.powder_radius);
   EXPECT_EQ(o.tracker.visibility.powder_margin, d.visibility.powder_margin);
+  EXPECT_EQ(o.tracker.visibility.cover, d.visibility.cover);
+  EXPECT_EQ(o.tracker.visibility.powder_scan_margin, d.visibility.powder_scan_margin);
   EXPECT_EQ(o.tracker.filter.data_inflation, d.filter.data_inflation);
   EXPECT_EQ(o.tracker.icp.max_step_rotation, d.icp.max_step_rotation);
   EXPECT_EQ(o.tracker.icp.min_correspondences, d.icp.min_correspondences);

@@ -51,6 +51,13 @@ struct VisibilityConfig {
   double powder_radius = 0.02;  ///< m: the powder height at a point is the median of the last frame's contour band
                                 ///< points within this (2-D); 0 = no powder test
   double powder_margin = 0.0;   ///< m: points lower than that height + this are left out
+  double cover = 0.003;         ///< m: an upward-facing point with a scan point 3-15 mm (this to this + 12 mm)
+                                ///< straight above it is under powder and left out; 0 = no cover test
+  double powder_scan_margin = 0.011;  ///< m: while the part is still, an upward-facing scan point lower than that
+                                      ///< height + this is taken for powder: template points are matched to it,
+                                      ///< it is not matched to the template (icp.scan_weight); 0 = every scan
+                                      ///< point is. The powder round a part varies by about 1 cm (a vacuumed
+                                      ///< ring beside untouched powder)
 };
 
 /// When a fit is believed (TrackResult::status). The same rule for all three methods.

@@ -120,6 +120,7 @@ class PartTracker {
   // Per-frame buffers, kept to reuse their memory.
   Cloud crop_, crop_normals_;
   std::vector<std::uint8_t> near_template_;  ///< crop points near the template (ICP's candidates)
+  std::vector<std::uint8_t> scan_pulls_;     ///< crop points matched to the template too (not powder)
   Cloud sight_points_, sight_normals_;       ///< P_cad thinned to icp_leaf, cell frame at a pose
   std::vector<unsigned char> verdict_;
   Cloud refit_points_, refit_normals_;

@@ -37,6 +37,7 @@ struct Surface {
   const Cloud& points;
   const Cloud& normals;
   const ScanIndex& index;
+  const std::vector<std::uint8_t>* pulls = nullptr;  ///< scan only: points matched to the template too (null: all)
 };
 
 /// What earlier frames say about the pose (the tracker's filter). Deviations of a pose T from

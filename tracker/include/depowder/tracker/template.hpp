@@ -49,10 +49,13 @@ class PowderHeights {
 
 /// The template points ICP can use this frame (part frame, with normals): those facing at least one
 /// of `viewpoints` (back-face culling; none: no culling) and, if `powder` is not empty, not below
-/// the powder around them by more than `margin` (m) at pose T_cell_part. Clears the outputs first.
+/// the powder around them by more than `margin` (m) at pose T_cell_part, and, if `scan` is given
+/// and `cover` > 0, not facing up (within 45 deg) with a scan point straight above them (within 4
+/// mm in plan) `cover` to `cover` + 12 mm higher: a face under that much powder. Clears the
+/// outputs first.
 void visibleTemplate(const Cloud& points, const Cloud& normals, const Pose& T_cell_part,
                      const std::vector<Point>& viewpoints, const PowderHeights& powder, double margin,
-                     Cloud& out_points, Cloud& out_normals);
+                     const ScanIndex* scan, double cover, Cloud& out_points, Cloud& out_normals);
 
 /// Gathers points[indices].
 Cloud gather(const Cloud& points, const Indices& indices);
