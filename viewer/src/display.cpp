@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -32,7 +33,13 @@ Xvfb::Xvfb(int width, int height) {
   pid_ = fork();
   if (pid_ < 0) throw std::runtime_error("Xvfb: fork failed");
   if (pid_ == 0) {
-    // Child: -displayfd picks a free display number and writes it to the pipe when ready.
+    // Child: out of the viewer's process group, so that the launcher's SIGTERM to the group
+    // does not take the X server away while the viewer is still closing its window (Xlib's
+    // "fatal IO error" at every demo's end); the viewer's destructor stops it instead, and it
+    // goes with the viewer if that dies.
+    setpgid(0, 0);
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    // -displayfd picks a free display number and writes it to the pipe when ready.
     if (fds[1] == 3)
       fcntl(3, F_SETFD, 0);  // dup2 onto itself would keep close-on-exec
     else
