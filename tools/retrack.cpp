@@ -157,10 +157,11 @@ int main(int argc, char** argv) {
                 t, p.part.c_str(), status.c_str(), p.eta, dr, aa.axis().x(), aa.axis().y(), aa.axis().z(), dt,
                 err_mm.x(), err_mm.y(), err_mm.z(), p.inlier_ratio, 1e3 * p.fitness, result ? result->sight.seen : 0,
                 result ? result->sight.in_front : 0, result ? result->sight.hidden : 0,
-                tool == waypoint_t::TOOL_AIR ? "air" : tool == waypoint_t::TOOL_VACUUM ? "vac" : "off", nozzle_mm.x(),
-                nozzle_mm.y(), nozzle_mm.z(),
-                result && result->refit ? " REFIT" : "", result && result->template_updated ? " TEMPLATE" : "",
-                p.status_reason.c_str());
+                tool == waypoint_t::TOOL_AIR      ? "air"
+                : tool == waypoint_t::TOOL_VACUUM ? "vac"
+                                                  : "off",
+                nozzle_mm.x(), nozzle_mm.y(), nozzle_mm.z(), result && result->refit ? " REFIT" : "",
+                result && result->template_updated ? " TEMPLATE" : "", p.status_reason.c_str());
           }
         }
       }

@@ -85,9 +85,7 @@ std::optional<robot::Joints> escape(const CollisionWorld& world, const robot::Jo
   const double length = world.nozzle().length;
   const Pose T0 = robot::forwardNozzle(arm, q_now);
   const Point tip0 = T0.translation();
-  const auto distance = [&](const Point& tip) {
-    return field.query(tip.x(), tip.y(), tip.z(), tip.z() + length, 1.0);
-  };
+  const auto distance = [&](const Point& tip) { return field.query(tip.x(), tip.y(), tip.z(), tip.z() + length, 1.0); };
   const auto d0 = distance(tip0);
   const double max_move = config.vacuum.standoff + config.collision.lost_margin;
   const int steps = static_cast<int>(std::ceil(max_move / config.collision.edge_step));

@@ -240,8 +240,8 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   // the cameras can see now: facing one of them, not under the powder around the part, and no
   // upward face with powder straight over it.
   t0 = Clock::now();
-  visibleTemplate(icp_points_, icp_normals_, T_cell_part_, viewpoints, powder_, config_.visibility.powder_margin,
-                  &grid, config_.visibility.cover, visible_points_, visible_normals_);
+  visibleTemplate(icp_points_, icp_normals_, T_cell_part_, viewpoints, powder_, config_.visibility.powder_margin, &grid,
+                  config_.visibility.cover, visible_points_, visible_normals_);
   if (visible_points_.empty()) return finish(refuse(r, "no template point faces a camera above the powder"));
   const ScanIndex model_index(visible_points_, max_distance);
   // Normals only where ICP can use them: scan points in the template's grid cells or next to them

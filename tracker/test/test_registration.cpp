@@ -140,10 +140,10 @@ TEST(Registration, ScanPointsThatDoNotPullAreMatchedOneWayOnly) {
   const ScanIndex model_index(patch, 0.01), scan_index(powder, 0.01);
   const std::vector<std::uint8_t> all(powder.size(), 1), none(powder.size(), 0);
   const IcpConfig config = oneOff(1, 1e-9, 1e-9);
-  const RegistrationResult both = registerSurfaces({patch, up, model_index}, {powder, up, scan_index, &all},
-                                                   Pose::Identity(), 0.01, config);
-  const RegistrationResult one_way = registerSurfaces({patch, up, model_index}, {powder, up, scan_index, &none},
-                                                      Pose::Identity(), 0.01, config);
+  const RegistrationResult both =
+      registerSurfaces({patch, up, model_index}, {powder, up, scan_index, &all}, Pose::Identity(), 0.01, config);
+  const RegistrationResult one_way =
+      registerSurfaces({patch, up, model_index}, {powder, up, scan_index, &none}, Pose::Identity(), 0.01, config);
   EXPECT_EQ(both.correspondences, 100);
   EXPECT_EQ(both.scan_matches, 100);
   EXPECT_EQ(one_way.correspondences, 100);
