@@ -100,8 +100,10 @@ Mesh ellipsoid(const Vector3d& radii, const Pose& pose, int segments, int stacks
   return m;
 }
 
-/// Axis-aligned box centred at the origin, each face split into a divisions x divisions grid
-/// whose vertices are shared between faces along the edges.
+}  // namespace
+
+// Faces split into a divisions x divisions grid whose vertices are shared between faces along
+// the edges.
 Mesh box(const Vector3d& size, int divisions) {
   Mesh m;
   const int n = divisions + 1;
@@ -133,6 +135,8 @@ Mesh box(const Vector3d& size, int divisions) {
   }
   return m;
 }
+
+namespace {
 
 /// A point on a swept path with its rotation-minimising frame: u x v = t.
 struct Frame {

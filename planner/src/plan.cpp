@@ -134,14 +134,9 @@ std::optional<robot::Joints> escape(const CollisionWorld& world, const robot::Jo
   away.z() = 0;
   if (away.norm() < 1e-9) away = tip0 - world.partPose(part).translation();
   away.z() = 0;
-  std::string sideways = "the nozzle is above it";
+  std::string sideways = "the nozzle is above it", upwards;
   robot::Joints q;
-  if (away.norm() >= 1e-9 && leave(away.normalized(), q, sideways)) {
-    out.insert(out.end(), way.begin(), way.end());
-    return q;
-  }
-  std::string upwards;
-  if (leave(Eigen::Vector3d::UnitZ(), q, upwards)) {
+  if ((away.norm() >= 1e-9 && leave(away.normalized(), q, sideways)) || leave(Eigen::Vector3d::UnitZ(), q, upwards)) {
     out.insert(out.end(), way.begin(), way.end());
     return q;
   }

@@ -21,16 +21,6 @@ inline std::shared_ptr<robot::ArmConfig> cellArm() {
   return arm;
 }
 
-/// An axis-aligned box mesh centred at the origin (outward winding).
-inline Mesh boxMesh(double sx, double sy, double sz) {
-  Mesh m;
-  for (int i = 0; i < 8; ++i)
-    m.vertices.emplace_back((i & 1 ? 0.5 : -0.5) * sx, (i & 2 ? 0.5 : -0.5) * sy, (i & 4 ? 0.5 : -0.5) * sz);
-  m.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-                 {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-  return m;
-}
-
 /// A synthetic powder contour, as the progress estimator would report it for a powder surface
 /// at height `powder`: the visible part (above the powder, less 1 cm) projected to xy, its
 /// support in 72 directions plus `gap` (the estimator's band sits ~xi + 2.5 mm out).

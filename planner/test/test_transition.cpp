@@ -40,7 +40,7 @@ class TransitionTest : public ::testing::Test {
   PlannerConfig config;
   std::shared_ptr<robot::ArmConfig> arm = test::cellArm();
   // A tall part: a 6 x 12 cm pillar, 30 cm high, standing in the middle of the box.
-  Mesh pillar_mesh = test::boxMesh(0.06, 0.12, 0.30);
+  Mesh pillar_mesh = parts::box({0.06, 0.12, 0.30});
   Pose T_pillar = makePoseRpy({0.0, 0.0, 0.15}, 0, 0, 0);
   std::unique_ptr<CollisionWorld> world;
 

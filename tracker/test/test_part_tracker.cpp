@@ -238,19 +238,6 @@ TEST(PartTracker, FollowsAPushedHalfBuriedPipeWithoutSpinning) {
   EXPECT_LT(transErrMm(r.T_cell_part, truth), 6.0);
 }
 
-// A box mesh from `lo` to `hi` (cell frame), outward faces.
-Mesh boxMesh(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
-  Mesh m;
-  for (int k = 0; k < 8; ++k)
-    m.vertices.emplace_back(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(), k & 4 ? hi.z() : lo.z());
-  const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& f : faces) {
-    m.triangles.emplace_back(f[0], f[1], f[2]);
-    m.triangles.emplace_back(f[0], f[2], f[3]);
-  }
-  return m;
-}
-
 // The default cell's mid-run rise (the pipe's pose rose 1 cm, then turned 13-14 deg): the vacuum
 // loop lowers the powder in a ring round the still pipe, where the Eq. 2 band lies, while the
 // powder over its horizontal leg stays. The leg's top face, a few mm under that powder, then
@@ -269,11 +256,12 @@ TEST(PartTracker, StillPipeDoesNotRiseWhenThePowderBesideItIsLowered) {
     if (cad.normals[i].z() > 0.9 && cad.points[i].z() < T.translation().z()) leg.extend(cad.points[i]);
   ASSERT_FALSE(leg.isEmpty());
   const double top = leg.max().z(), cover = top + 0.005, powder_z = cover - 0.01;
-  const Mesh slab = boxMesh({leg.min().x(), leg.min().y(), powder_z - 0.001}, {leg.max().x(), leg.max().y(), cover});
+  const Eigen::Vector3d lo(leg.min().x(), leg.min().y(), powder_z - 0.001), hi(leg.max().x(), leg.max().y(), cover);
+  const Mesh slab = parts::box(hi - lo);
   std::mt19937 rng(9);
   std::vector<Cloud> frames;
   for (int k = 0; k < 120; ++k)
-    frames.push_back(scene::render({{&mesh, T}, {&slab, Pose::Identity()}}, powder_z, {}, rng));
+    frames.push_back(scene::render({{&mesh, T}, {&slab, makePoseRpy(0.5 * (lo + hi), 0, 0, 0)}}, powder_z, {}, rng));
   auto worstRise = [&](double cover_test, double scan_margin) {
     TrackerConfig c = defaults();
     c.visibility.cover = cover_test;

@@ -16,6 +16,10 @@ Mesh propeller();
 Mesh owl();
 Mesh pipe();
 
+/// An axis-aligned box of `size` (m) centred at the origin, outward winding, each face split
+/// into divisions x divisions squares (the cube's faces are, for contact models and samplers).
+Mesh box(const Eigen::Vector3d& size, int divisions = 1);
+
 /// "cube", "cup", "propeller", "owl", "pipe".
 const std::vector<std::string>& names();
 /// The part called `name`; throws std::invalid_argument naming the known parts.
