@@ -67,6 +67,9 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   filter.read("moving_frames", c.filter.moving_frames, 1, 1000);
   filter.read("initial_deg", c.filter.initial_deg, 1e-6, 180.0);
   filter.read("initial_m", c.filter.initial_m, 1e-7, 1.0);
+  filter.read("reset_deg", c.filter.reset_deg, 1e-6, 180.0);
+  filter.read("reset_m", c.filter.reset_m, 1e-7, 1.0);
+  filter.read("reset_frames", c.filter.reset_frames, 0, 1000);
   filter.finish();
   const node::YamlReader st = r.child("status");
   st.read("tracking_min_inlier_ratio", c.status.tracking_min_inlier_ratio, 0.0, 1.0);

@@ -72,6 +72,9 @@ std::string validate(const TrackerConfig& c) {
   if (!nonNegative(c.filter.moving_translation) || !nonNegative(c.filter.moving_rotation_deg))
     return "filter.moving_translation and filter.moving_rotation_deg must be >= 0";
   if (c.filter.moving_frames < 1) return "filter.moving_frames must be >= 1";
+  if (!positive(c.filter.reset_deg) || !positive(c.filter.reset_m))
+    return "filter.reset_deg and filter.reset_m must be > 0";
+  if (c.filter.reset_frames < 0) return "filter.reset_frames must be >= 0 (0 = no disagreement check)";
   if (!positive(c.filter.initial_deg) || !positive(c.filter.initial_m))
     return "filter.initial_deg and filter.initial_m must be > 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
@@ -122,6 +125,8 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"filter.moving_translation", &c.filter.moving_translation},
                                               {"filter.moving_rotation_deg", &c.filter.moving_rotation_deg},
                                               {"filter.initial_m", &c.filter.initial_m},
+                                              {"filter.reset_deg", &c.filter.reset_deg},
+                                              {"filter.reset_m", &c.filter.reset_m},
                                               {"progress.grid_cell", &c.progress.grid_cell},
                                               {"progress.contour_spacing", &c.progress.contour_spacing},
                                               {"progress.footprint_reuse", &c.progress.footprint_reuse}};
@@ -129,10 +134,12 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
     c.icp.max_iterations = static_cast<int>(value);
   } else if (key == "filter.moving_frames") {
     c.filter.moving_frames = static_cast<int>(value);
+  } else if (key == "filter.reset_frames") {
+    c.filter.reset_frames = static_cast<int>(value);
   } else if (const auto it = fields.find(key); it != fields.end()) {
     *it->second = value;
   } else {
-    std::string known = "icp.max_iterations, filter.moving_frames";
+    std::string known = "icp.max_iterations, filter.moving_frames, filter.reset_frames";
     for (const auto& f : fields) known += ", " + f.first;
     throw std::invalid_argument("unknown tracker key '" + key + "' (known: " + known + ")");
   }

@@ -67,11 +67,17 @@ void PartTracker::resetInformation() {
 // The filter's prediction for this frame: the part stays where it was, less sure by the process
 // noise (cell axes: it turns about the vertical and slides, it seldom tips or sinks; a still part
 // turns far less than a pushed one).
-PosePrior PartTracker::predicted() const {
+Vector6d PartTracker::processVariance() const {
   const FilterConfig& f = config_.filter;
   const double yaw = f.q_yaw_deg * M_PI / 180, tilt = f.q_tilt_deg * M_PI / 180;
   Vector6d q;
   q << tilt * tilt, tilt * tilt, yaw * yaw, f.q_xy * f.q_xy, f.q_xy * f.q_xy, f.q_z * f.q_z;
+  return q;
+}
+
+PosePrior PartTracker::predicted() const {
+  const FilterConfig& f = config_.filter;
+  Vector6d q = processVariance();
   if (!moving_) q.head<3>() *= f.still_turn * f.still_turn;
   // The part turns about the middle of what the cameras see of it, not about its origin: in
   // PosePrior's coordinates a turn w about c also moves the origin by w x (t - c).
@@ -90,6 +96,43 @@ PosePrior PartTracker::predicted() const {
   prior.information = 0.5 * (prior.information + prior.information.transpose());
   prior.inflation = f.data_inflation;
   return prior;
+}
+
+// What the fit without the filter asks of the filter's pose, in the ways a pushed part moves:
+// their difference (PosePrior's coordinates) weighed by what the scan sees (free.information,
+// counted as the filter counts it) against reset_frames frames of a pushed part's process noise.
+// A tube's spin (unseen) and a tip (no noise) are not asked for. Asked for consistently (the mean
+// over reset_frames frames beyond reset_deg or reset_m), the filter starts again from its pose
+// moved as asked, with what this frame saw.
+bool PartTracker::restartFilter(const RegistrationResult& filtered, const RegistrationResult& free) {
+  const FilterConfig& f = config_.filter;
+  const StatusConfig& s = config_.status;
+  if (!free.ok() || !isValidPose(free.T_target_source, 1e-6) || free.inlier_ratio < s.tracking_min_inlier_ratio ||
+      free.rms > s.tracking_max_rms) {
+    asked_.clear();  // a doubtful free fit asks nothing, and the mean starts again
+    return false;
+  }
+  const Pose& T = filtered.T_target_source;
+  const Eigen::AngleAxisd turn(free.T_target_source.linear() * T.linear().transpose());
+  Vector6d difference;
+  difference << turn.angle() * turn.axis(), free.T_target_source.translation() - T.translation();
+  const Matrix6d seen = free.information / f.data_inflation;
+  const Vector6d motion = static_cast<double>(f.reset_frames * f.reset_frames) * processVariance();
+  const Matrix6d loose = motion.cwiseInverse().asDiagonal();
+  const Vector6d asked = (loose + seen).ldlt().solve(seen * difference);
+  asked_.push_back(asked);
+  if (asked_.size() > static_cast<std::size_t>(f.reset_frames)) asked_.pop_front();
+  if (asked_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
+  Vector6d mean = Vector6d::Zero();
+  for (const Vector6d& a : asked_) mean += a / static_cast<double>(asked_.size());
+  if (mean.head<3>().norm() * 180 / M_PI <= f.reset_deg && mean.tail<3>().norm() <= f.reset_m) return false;
+  T_cell_part_ = T;
+  if (const double angle = asked.head<3>().norm(); angle > 0)
+    T_cell_part_.linear() = Eigen::AngleAxisd(angle, asked.head<3>() / angle).toRotationMatrix() * T.linear();
+  T_cell_part_.translation() += asked.tail<3>();
+  information_ = loose + seen;
+  asked_.clear();
+  return true;
 }
 
 double PartTracker::correspondenceDistance() const {
@@ -282,9 +325,18 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (reg.rms > s.lost_max_rms)
     return finish(refuse(
         r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
-  T_cell_part_ = reg.T_target_source;
+  // Not in the paper: the disagreement check (FilterConfig::reset_frames), the same scan
+  // registered without the filter. A filter that holds a pushed part still never sees it move.
+  bool reset = false;
+  if (filter && config_.filter.reset_frames > 0) {
+    const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
+                                                     T_cell_part_, max_distance, config_.icp, nullptr);
+    reset = restartFilter(reg, free);
+    r.reset = reset;
+  }
+  if (!reset) T_cell_part_ = reg.T_target_source;
   if (filter) {
-    information_ = prior.information + reg.information / config_.filter.data_inflation;  // the update
+    if (!reset) information_ = prior.information + reg.information / config_.filter.data_inflation;
     // Still or moving: how far the part went over the last moving_frames frames.
     recent_.push_back(T_cell_part_);
     if (recent_.size() > static_cast<std::size_t>(config_.filter.moving_frames) + 1) recent_.pop_front();

@@ -83,6 +83,9 @@ TEST(TrackerOptions, DefaultCellHasTheLibraryDefaults) {
   EXPECT_EQ(o.tracker.visibility.cover, d.visibility.cover);
   EXPECT_EQ(o.tracker.visibility.powder_scan_margin, d.visibility.powder_scan_margin);
   EXPECT_EQ(o.tracker.filter.data_inflation, d.filter.data_inflation);
+  EXPECT_EQ(o.tracker.filter.reset_frames, d.filter.reset_frames);
+  EXPECT_EQ(o.tracker.filter.reset_deg, d.filter.reset_deg);
+  EXPECT_EQ(o.tracker.filter.reset_m, d.filter.reset_m);
   EXPECT_EQ(o.tracker.icp.max_step_rotation, d.icp.max_step_rotation);
   EXPECT_EQ(o.tracker.icp.min_correspondences, d.icp.min_correspondences);
   EXPECT_EQ(o.tracker.status.tracking_min_inlier_ratio, d.status.tracking_min_inlier_ratio);

@@ -46,6 +46,7 @@ struct TrackResult {
   int iterations = 0;                   ///< ICP iterations this frame
   bool template_updated = false;        ///< Alg. 2 ran this frame
   bool refit = false;                   ///< the refit replaced ICP's pose (TrackerConfig::refit_margin)
+  bool reset = false;                   ///< the filter started again (FilterConfig::reset_frames)
   bool moving = false;                  ///< the filter takes the part as moving (FilterConfig::moving_translation)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
@@ -115,7 +116,10 @@ class PartTracker {
   Matrix6d information_ = Matrix6d::Zero();
   std::deque<Pose> recent_;  ///< the last poses tracked (the filter's motion test)
   bool moving_ = false;
+  std::deque<Vector6d> asked_;  ///< what the fit without the filter asked of the pose, the last frames
   void resetInformation();
+  Vector6d processVariance() const;  ///< a pushed part's, per frame (PosePrior's coordinates)
+  bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free);
 
   // Per-frame buffers, kept to reuse their memory.
   Cloud crop_, crop_normals_;
