@@ -67,6 +67,7 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   filter.read("moving_frames", c.filter.moving_frames, 1, 1000);
   filter.read("initial_deg", c.filter.initial_deg, 1e-6, 180.0);
   filter.read("initial_m", c.filter.initial_m, 1e-7, 1.0);
+  filter.read("reset_chi2", c.filter.reset_chi2, 1e-6, 1e9);
   filter.read("reset_deg", c.filter.reset_deg, 1e-6, 180.0);
   filter.read("reset_m", c.filter.reset_m, 1e-7, 1.0);
   filter.read("reset_frames", c.filter.reset_frames, 0, 1000);

@@ -98,40 +98,52 @@ PosePrior PartTracker::predicted() const {
   return prior;
 }
 
-// What the fit without the filter asks of the filter's pose, in the ways a pushed part moves:
-// their difference (PosePrior's coordinates) weighed by what the scan sees (free.information,
-// counted as the filter counts it) against reset_frames frames of a pushed part's process noise.
-// A tube's spin (unseen) and a tip (no noise) are not asked for. Asked for consistently (the mean
-// over reset_frames frames beyond reset_deg or reset_m), the filter starts again from its pose
-// moved as asked, with what this frame saw.
-bool PartTracker::restartFilter(const RegistrationResult& filtered, const RegistrationResult& free) {
+// The disagreement check. The fit without the filter differs from the filter's (PosePrior's
+// coordinates); over reset_frames frames in a row the mean difference is tested twice:
+// - against both fits' uncertainties (the filter's prior and the free fit's information, counted
+//   as the filter counts it): a still tube's spin, unseen by the scan and held by the filter, is
+//   no disagreement;
+// - by what it asks of the pose in the ways a pushed part moves (weighed by what the scan sees
+//   against reset_frames frames of a pushed part's process noise: a tip is not asked for).
+// Both beyond their limits, the filter starts again from its pose moved as this frame asks.
+bool PartTracker::restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
+                                const Matrix6d& prior_information) {
   const FilterConfig& f = config_.filter;
   const StatusConfig& s = config_.status;
   if (!free.ok() || !isValidPose(free.T_target_source, 1e-6) || free.inlier_ratio < s.tracking_min_inlier_ratio ||
       free.rms > s.tracking_max_rms) {
-    asked_.clear();  // a doubtful free fit asks nothing, and the mean starts again
+    differences_.clear();  // a doubtful free fit says nothing, and the mean starts again
     return false;
   }
   const Pose& T = filtered.T_target_source;
   const Eigen::AngleAxisd turn(free.T_target_source.linear() * T.linear().transpose());
   Vector6d difference;
   difference << turn.angle() * turn.axis(), free.T_target_source.translation() - T.translation();
+  differences_.push_back(difference);
+  if (differences_.size() > static_cast<std::size_t>(f.reset_frames)) differences_.pop_front();
+  if (differences_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
+  Vector6d mean = Vector6d::Zero();
+  for (const Vector6d& d : differences_) mean += d / static_cast<double>(differences_.size());
+
   const Matrix6d seen = free.information / f.data_inflation;
+  // A half-turn and a metre of uncertainty keep an unseen direction's inverse finite.
+  Vector6d vague;
+  vague << Eigen::Vector3d::Constant(1 / (M_PI * M_PI)), Eigen::Vector3d::Constant(1.0);
+  const Matrix6d uncertainty = prior_information.inverse() + (seen + Matrix6d(vague.asDiagonal())).inverse();
+  const double chi2 = static_cast<double>(differences_.size()) * mean.dot(uncertainty.ldlt().solve(mean));
   const Vector6d motion = static_cast<double>(f.reset_frames * f.reset_frames) * processVariance();
   const Matrix6d loose = motion.cwiseInverse().asDiagonal();
+  const Vector6d asked_mean = (loose + seen).ldlt().solve(seen * mean);
+  if (chi2 <= f.reset_chi2 ||
+      (asked_mean.head<3>().norm() * 180 / M_PI <= f.reset_deg && asked_mean.tail<3>().norm() <= f.reset_m))
+    return false;
   const Vector6d asked = (loose + seen).ldlt().solve(seen * difference);
-  asked_.push_back(asked);
-  if (asked_.size() > static_cast<std::size_t>(f.reset_frames)) asked_.pop_front();
-  if (asked_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
-  Vector6d mean = Vector6d::Zero();
-  for (const Vector6d& a : asked_) mean += a / static_cast<double>(asked_.size());
-  if (mean.head<3>().norm() * 180 / M_PI <= f.reset_deg && mean.tail<3>().norm() <= f.reset_m) return false;
   T_cell_part_ = T;
   if (const double angle = asked.head<3>().norm(); angle > 0)
     T_cell_part_.linear() = Eigen::AngleAxisd(angle, asked.head<3>() / angle).toRotationMatrix() * T.linear();
   T_cell_part_.translation() += asked.tail<3>();
   information_ = loose + seen;
-  asked_.clear();
+  differences_.clear();
   return true;
 }
 
@@ -331,7 +343,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (filter && config_.filter.reset_frames > 0) {
     const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
                                                      T_cell_part_, max_distance, config_.icp, nullptr);
-    reset = restartFilter(reg, free);
+    reset = restartFilter(reg, free, prior.information);
     r.reset = reset;
   }
   if (!reset) T_cell_part_ = reg.T_target_source;

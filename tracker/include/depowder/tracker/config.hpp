@@ -90,13 +90,15 @@ struct FilterConfig {
   int moving_frames = 10;             ///< frames (1/3 s at 30 fps)
   double initial_deg = 0.5;           ///< uncertainty of the initial pose (and of a refit's), deg...
   double initial_m = 0.001;           ///< ...and m
-  /// The disagreement check: each frame the scan is also registered without the filter. What that
-  /// fit asks of the filter's pose, in the ways a pushed part moves (turns about the vertical and
-  /// slides: the process noise of reset_frames frames), averaged over reset_frames frames: over
-  /// reset_deg or reset_m, the filter is wrong about the motion (it holds a pushed or spun part
-  /// still) and starts again from its pose moved as asked. reset_frames 0 = no check.
-  double reset_deg = 4;
-  double reset_m = 0.002;
+  /// The disagreement check: each frame the scan is also registered without the filter. Over
+  /// reset_frames frames in a row, the mean difference of the two fits is tested against both
+  /// fits' uncertainties (reset_chi2) and by what it asks of the pose in the ways a pushed part
+  /// moves (turns about the vertical and slides, reset_frames frames of process noise: beyond
+  /// reset_deg or reset_m). Both beyond: the filter held a moving part still, and starts again
+  /// from its pose moved as asked. reset_frames 0 = no check.
+  double reset_chi2 = 300;  ///< chi-square of the mean difference, 6 dof (frames are not independent)
+  double reset_deg = 4;     ///< deg
+  double reset_m = 0.002;   ///< m
   int reset_frames = 8;
 };
 

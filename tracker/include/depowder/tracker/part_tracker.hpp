@@ -116,10 +116,11 @@ class PartTracker {
   Matrix6d information_ = Matrix6d::Zero();
   std::deque<Pose> recent_;  ///< the last poses tracked (the filter's motion test)
   bool moving_ = false;
-  std::deque<Vector6d> asked_;  ///< what the fit without the filter asked of the pose, the last frames
+  std::deque<Vector6d> differences_;  ///< the fit without the filter less the filter's, the last frames
   void resetInformation();
   Vector6d processVariance() const;  ///< a pushed part's, per frame (PosePrior's coordinates)
-  bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free);
+  bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
+                     const Matrix6d& prior_information);
 
   // Per-frame buffers, kept to reuse their memory.
   Cloud crop_, crop_normals_;
