@@ -341,10 +341,12 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   // registered without the filter. A filter that holds a pushed part still never sees it move.
   bool reset = false;
   if (filter && config_.filter.reset_frames > 0) {
+    t0 = Clock::now();
     const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
                                                      T_cell_part_, max_distance, config_.icp, nullptr);
     reset = restartFilter(reg, free, prior.information);
     r.reset = reset;
+    r.timing.check_ms = msSince(t0);
   }
   if (!reset) T_cell_part_ = reg.T_target_source;
   if (filter) {

@@ -33,6 +33,7 @@ struct TrackTiming {
   double progress_ms = 0;  ///< line 11 (Eq. 2)
   double template_ms = 0;  ///< Alg. 2, when it ran
   double sight_ms = 0;     ///< the lines-of-sight check and the refit (not in the paper)
+  double check_ms = 0;     ///< the disagreement check: the fit without the filter (not in the paper)
   double total_ms = 0;
 };
 
