@@ -52,13 +52,6 @@ std::string describe(const TransitionResult& t) {
   return buf;
 }
 
-Waypoint here(const robot::ArmConfig& arm, const robot::Joints& q) {
-  Waypoint w;
-  w.T_cell_nozzle = robot::forwardNozzle(arm, q);
-  w.q = q;
-  return w;
-}
-
 /// If the arm is in collision now because a part moved into the nozzle's margin (the paper's
 /// toppling pipe), the way out: straight away from that part, horizontally, every edge_step,
 /// while nothing else is hit and the nozzle's distance to the part never shrinks, until the
@@ -168,10 +161,10 @@ Plan planCycle(const CollisionWorld& world, const CycleRequest& request, const P
     // 12.5 + 2.5 + 12 mm by default). Built at the stand-off, every waypoint would be pushed out
     // step by step in refinePath: a fifth of a new loop's planning (depowder-planner-bench).
     const double margin = world.partState(request.part) == PartState::kLost ? config.collision.lost_margin
-                                                                             : config.collision.tracking_margin;
+                                                                            : config.collision.tracking_margin;
     PlannerConfig loop_config = config;
-    loop_config.vacuum.standoff = std::max(
-        config.vacuum.standoff, config.nozzle.radius + config.nozzle.margin + margin + 0.5 * config.collision.push_step);
+    loop_config.vacuum.standoff = std::max(config.vacuum.standoff, config.nozzle.radius + config.nozzle.margin +
+                                                                       margin + 0.5 * config.collision.push_step);
     LoopResult loop;
     std::string fallback;
     if (!request.contour.empty()) {
@@ -239,7 +232,7 @@ Plan planCycle(const CollisionWorld& world, const CycleRequest& request, const P
     plan.planning_ms = msSince(t0);
     return plan;
   }
-  const Waypoint now = here(arm, *q_start);
+  const Waypoint now = atJoints(arm, *q_start);
   const Waypoint& first = refined.pieces.front().front();
   const double gap = (first.T_cell_nozzle.translation() - now.T_cell_nozzle.translation()).norm();
   std::string entry = plan.waypoints.empty() ? "entered directly" : "escaped from the part, entered directly";

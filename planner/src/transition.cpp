@@ -212,13 +212,6 @@ double safeHeight(const CollisionWorld& world, const TransitionConfig& config) {
 
 namespace {
 
-Waypoint atJoints(const robot::ArmConfig& arm, const robot::Joints& q) {
-  Waypoint w;
-  w.T_cell_nozzle = robot::forwardNozzle(arm, q);
-  w.q = q;
-  return w;
-}
-
 /// The driver runs waypoints as straight Cartesian steps with IK, not along the joint-space
 /// line OMPL validated: checks every step of the path that way, inserting joint-space
 /// midpoints (which lie on the validated line) where the Cartesian step fails.
@@ -297,14 +290,7 @@ TransitionResult planTransition(const CollisionWorld& world, const robot::Joints
 
 std::vector<Waypoint> pathWaypoints(const robot::ArmConfig& arm, const std::vector<robot::Joints>& path, double speed) {
   std::vector<Waypoint> out;
-  for (std::size_t k = 1; k < path.size(); ++k) {
-    Waypoint w;
-    w.T_cell_nozzle = robot::forwardNozzle(arm, path[k]);
-    w.tool = Tool::kOff;
-    w.speed = speed;
-    w.q = path[k];
-    out.push_back(w);
-  }
+  for (std::size_t k = 1; k < path.size(); ++k) out.push_back(atJoints(arm, path[k], Tool::kOff, speed));
   return out;
 }
 

@@ -18,6 +18,15 @@ const char* toString(Tool t) {
   return "?";
 }
 
+Waypoint atJoints(const robot::ArmConfig& arm, const robot::Joints& q, Tool tool, double speed) {
+  Waypoint w;
+  w.T_cell_nozzle = robot::forwardNozzle(arm, q);
+  w.tool = tool;
+  w.speed = speed;
+  w.q = q;
+  return w;
+}
+
 Pose nozzleDown(const robot::ArmConfig& arm, const Point& tip) {
   Eigen::Vector3d x = tip - arm.T_cell_base.translation();
   x.z() = 0;

@@ -31,6 +31,9 @@ struct Waypoint {
 /// direction from the robot base to the tip (so J4 and J6 stay put as J1 turns).
 Pose nozzleDown(const robot::ArmConfig& arm, const Point& tip);
 
+/// The waypoint of the arm at joints `q` (its nozzle pose by forward kinematics).
+Waypoint atJoints(const robot::ArmConfig& arm, const robot::Joints& q, Tool tool = Tool::kOff, double speed = 0);
+
 /// Which way a colliding waypoint is pushed.
 enum class PushMode {
   kOutward,  ///< horizontally away from `centre` (vacuum loops)
