@@ -115,10 +115,7 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
     differences_.clear();  // a doubtful free fit says nothing, and the mean starts again
     return false;
   }
-  const Pose& T = filtered.T_target_source;
-  const Eigen::AngleAxisd turn(free.T_target_source.linear() * T.linear().transpose());
-  Vector6d difference;
-  difference << turn.angle() * turn.axis(), free.T_target_source.translation() - T.translation();
+  const Vector6d difference = deviation(free.T_target_source, filtered.T_target_source);
   differences_.push_back(difference);
   if (differences_.size() > static_cast<std::size_t>(f.reset_frames)) differences_.pop_front();
   if (differences_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
@@ -133,15 +130,12 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
   const double chi2 = static_cast<double>(differences_.size()) * mean.dot(uncertainty.ldlt().solve(mean));
   const Vector6d motion = static_cast<double>(f.reset_frames * f.reset_frames) * processVariance();
   const Matrix6d loose = motion.cwiseInverse().asDiagonal();
-  const Vector6d asked_mean = (loose + seen).ldlt().solve(seen * mean);
+  const Eigen::LDLT<Matrix6d> ask(loose + seen);
+  const Vector6d asked_mean = ask.solve(seen * mean);
   if (chi2 <= f.reset_chi2 ||
       (asked_mean.head<3>().norm() * 180 / M_PI <= f.reset_deg && asked_mean.tail<3>().norm() <= f.reset_m))
     return false;
-  const Vector6d asked = (loose + seen).ldlt().solve(seen * difference);
-  T_cell_part_ = T;
-  if (const double angle = asked.head<3>().norm(); angle > 0)
-    T_cell_part_.linear() = Eigen::AngleAxisd(angle, asked.head<3>() / angle).toRotationMatrix() * T.linear();
-  T_cell_part_.translation() += asked.tail<3>();
+  T_cell_part_ = moved(filtered.T_target_source, ask.solve(seen * difference));
   information_ = loose + seen;
   differences_.clear();
   return true;

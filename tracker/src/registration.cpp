@@ -169,7 +169,8 @@ double residualVariance(const LinearSystem& sys) {
   return std::max(sys.sum_w > 0 ? sys.sum_wr2 / sys.sum_w : 0.0, 1e-8);
 }
 
-// The deviation of T from the prior's pose, in PosePrior's coordinates.
+}  // namespace
+
 Vector6d deviation(const Pose& T, const Pose& T_prior) {
   const Eigen::AngleAxisd aa(T.linear() * T_prior.linear().transpose());
   Vector6d e;
@@ -177,7 +178,13 @@ Vector6d deviation(const Pose& T, const Pose& T_prior) {
   return e;
 }
 
-}  // namespace
+Pose moved(const Pose& T, const Vector6d& d) {
+  Pose out = T;
+  const Eigen::Vector3d omega = d.head<3>();
+  if (omega.norm() > 0) out.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()) * T.linear();
+  out.translation() += d.tail<3>();
+  return out;
+}
 
 RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, const Pose& guess, double max_distance,
                                     const IcpConfig& config, const PosePrior* prior) {
@@ -272,10 +279,9 @@ RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, c
       result.T_target_source.linear() = orthonormalized(guess.linear());
       return result;
     }
-    const Eigen::Vector3d omega = delta.head<3>();
-    if (omega.norm() > 0) T.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()) * T.linear();
-    T.translation() += delta.tail<3>();
-    if (delta.tail<3>().norm() < config.convergence_translation && omega.norm() < config.convergence_rotation) {
+    T = moved(T, delta);
+    if (delta.tail<3>().norm() < config.convergence_translation &&
+        delta.head<3>().norm() < config.convergence_rotation) {
       if (matched_now) {
         result.status = RegistrationStatus::kConverged;
         break;

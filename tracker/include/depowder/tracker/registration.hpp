@@ -50,6 +50,11 @@ struct PosePrior {
                                             ///< residuals are not independent: neighbouring voxels share noise)
 };
 
+/// The deviation of T from T_prior in PosePrior's coordinates (rad, m).
+Vector6d deviation(const Pose& T, const Pose& T_prior);
+/// T moved by a deviation in PosePrior's coordinates: deviation(moved(T, d), T) = d.
+Pose moved(const Pose& T, const Vector6d& d);
+
 struct RegistrationResult {
   RegistrationStatus status = RegistrationStatus::kInvalidInput;
   std::string reason;                       ///< why, when not converged
