@@ -308,7 +308,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   scan_pulls_.assign(crop_.size(), 1);
   if (!powder_.empty() && config_.visibility.powder_scan_margin > 0 && !moving_)
     for (std::size_t j = 0; j < crop_.size(); ++j)
-      if (crop_normals_[j].z() >= config_.icp.normal_min_cos &&
+      if (facesUp(crop_normals_[j]) &&
           crop_[j].z() < powder_.at(crop_[j].head<2>()) + config_.visibility.powder_scan_margin)
         scan_pulls_[j] = 0;
   const Surface scan_surface{crop_, crop_normals_, grid, &scan_pulls_};

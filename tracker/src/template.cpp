@@ -89,7 +89,7 @@ void visibleTemplate(const Cloud& points, const Cloud& normals, const Pose& T_ce
                      const ScanIndex* scan, double cover, Cloud& out_points, Cloud& out_normals) {
   out_points.clear();
   out_normals.clear();
-  constexpr double kUp = 0.7071, kPlan = 0.004, kDepth = 0.012;  // 45 deg; the column above a point
+  constexpr double kPlan = 0.004, kDepth = 0.012;  // the column above a point
   const Eigen::Vector3d mid(0, 0, cover + 0.5 * kDepth);
   const double reach = std::hypot(0.5 * kDepth, kPlan);
   auto covered = [&](const Point& p) {
@@ -107,7 +107,7 @@ void visibleTemplate(const Cloud& points, const Cloud& normals, const Pose& T_ce
     for (const Point& eye : viewpoints) faces = faces || n.dot(eye - p) > 0;
     if (!faces) continue;
     if (!powder.empty() && p.z() < powder.at(p.head<2>()) + margin) continue;
-    if (scan && cover > 0 && n.z() >= kUp && covered(p)) continue;
+    if (scan && cover > 0 && facesUp(n) && covered(p)) continue;
     out_points.push_back(points[i]);
     out_normals.push_back(normals[i]);
   }

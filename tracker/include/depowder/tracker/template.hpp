@@ -3,6 +3,7 @@
 // CAD normals that point-to-plane ICP uses.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -29,6 +30,10 @@ Indices allIndices(std::size_t n);
 /// number of non-finite points met.
 std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::AlignedBox3d& box_part, double margin,
                        Cloud& out);
+
+/// A normal (cell frame) facing up within 45 deg: the faces and scan points the powder tests treat
+/// as horizontal (the cover test below, the tracker's powder points).
+inline bool facesUp(const Eigen::Vector3d& n) { return n.z() >= M_SQRT1_2; }
 
 /// The powder's height around a part, from the powder points of Eq. 2's contour band (cell
 /// frame): at an xy, the median height of the band points within `radius` (2-D), or the band's
