@@ -108,11 +108,12 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
             world.removeNozzle();
         });
         const Cloud scan = source.capture(world);
-        const Pose T_true = control.trace ? world.partTruth(0).T_cell_part : Pose::Identity();
+        const sim::PartTruth truth = control.trace ? world.partTruth(0) : sim::PartTruth{};
         for (std::size_t m = 0; m < methods.size(); ++m) {
           const tracker::TrackResult tr = trackers[m].track(scan);
           last[m] = tr.T_cell_part;
-          control.record({"moving", part.name, tracker::toString(methods[m]), trial, f, T_true, T0, &tr});
+          control.record(
+              {"moving", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T0, truth.eta, &tr});
         }
         done += 1;
         control.tell(done, total,

@@ -92,7 +92,8 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
           eta += truth.eta;
           for (std::size_t m = 0; m < methods.size(); ++m) {
             const tracker::TrackResult tr = trackers[m].track(scan);
-            control.record({"static", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T_true, &tr});
+            control.record(
+                {"static", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T_true, truth.eta, &tr});
             const PoseError e = poseError(tr.T_cell_part, truth.T_cell_part);
             TrialFigures& g = fig[m];
             g.rot_sum += e.rot_deg;

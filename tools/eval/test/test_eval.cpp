@@ -161,6 +161,9 @@ TEST(EvalStatic, TraceHasEveryFrameAndTheTablesErrors) {
     TraceRow row = rows[k];
     row.result = &results[k];
     EXPECT_EQ(commas(traceLine(row)), commas(traceHeader()));
+    EXPECT_NEAR(rows[k].eta_true, 0.6, 0.05);  // the true visibility, the last field (dug to 60 %)
+    const std::string line = traceLine(row);
+    EXPECT_NEAR(std::stod(line.substr(line.rfind(',') + 1)), rows[k].eta_true, 1e-4);
   }
   for (std::size_t m = 0; m < 3; ++m) {
     const TraceRow& last = rows[rows.size() - 3 + m];

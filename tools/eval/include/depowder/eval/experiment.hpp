@@ -24,6 +24,7 @@ struct TraceRow {
   int trial = 0, frame = 0;
   Pose T_true = Pose::Identity();
   Pose T_start = Pose::Identity();               ///< the part's true pose at the trial's start
+  double eta_true = 0;                           ///< Eq. 2 on the simulator's true powder surface
   const tracker::TrackResult* result = nullptr;  ///< the frame's (never null in a trace)
 };
 
