@@ -162,9 +162,9 @@ TEST(EvalStatic, TraceHasEveryFrameAndTheTablesErrors) {
     EXPECT_EQ(rows[k].method, tracker::toString(allMethods()[k % 3]));
     TraceRow row = rows[k];
     row.result = &results[k];
-    EXPECT_EQ(commas(traceLine(row)), commas(traceHeader()));
-    EXPECT_NEAR(rows[k].eta_true, 0.6, 0.05);  // the true visibility, the last field (dug to 60 %)
     const std::string line = traceLine(row);
+    EXPECT_EQ(commas(line), commas(traceHeader()));
+    EXPECT_NEAR(rows[k].eta_true, 0.6, 0.05);  // the true visibility, the last field (dug to 60 %)
     EXPECT_NEAR(std::stod(line.substr(line.rfind(',') + 1)), rows[k].eta_true, 1e-4);
   }
   for (std::size_t m = 0; m < 3; ++m) {
