@@ -377,13 +377,18 @@ int run(const Args& a) {
     const SpeedOptions po = speedOptions(a, a.speed_trials);
     StaticResult sr;
     SpeedResult pr;
+#ifdef DEPOWDER_EVAL_MOVING
+    const std::string of = "/3 ";
+#else
+    const std::string of = "/2 ";
+#endif
     {
-      ProgressBar bar("report 1/2 static", !a.quiet);
+      ProgressBar bar("report 1" + of + "static", !a.quiet);
       sr = runStatic(cell, parts, a.methods, so, control(bar));
     }
     printStatic(sr);
     if (!sr.interrupted) {
-      ProgressBar bar("report 2/2 speed", !a.quiet);
+      ProgressBar bar("report 2" + of + "speed", !a.quiet);
       pr = runSpeed(cell, parts, a.methods, po, control(bar));
     }
     printSpeed(pr);
@@ -393,7 +398,7 @@ int run(const Args& a) {
     const MovingOptions mo = movingOptions(a, a.moving_trials);
     MovingResult mr;
     if (!interrupted) {
-      ProgressBar bar("report 3/3 moving", !a.quiet);
+      ProgressBar bar("report 3" + of + "moving", !a.quiet);
       mr = runMoving(cell, parts, a.methods, mo, control(bar));
       printMoving(mr);
       interrupted = mr.interrupted;
