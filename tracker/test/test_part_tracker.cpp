@@ -227,14 +227,16 @@ TEST(PartTracker, FollowsAPushedHalfBuriedCup) {
 // The half-buried pipe pushed sideways 10 cm the same way. Its origin (the bounding box's centre)
 // is 2 cm off the upright leg that the cameras mostly see; the filter's turns are about the seen
 // portion's centre, so the slide is taken as a slide. With the turns about the origin, part of
-// the slide went into a spin about the leg that only the elbow shows (measured at the end: 3.4
-// deg / 2.3 mm; about the origin 8.0 deg / 3.3 mm; seeds 7 and 8: 3.0 and 2.8 deg against 6.9
-// and 7.0).
+// the slide went into a spin about the leg that only the elbow shows (measured at the end with a
+// pushed part's turn noise of 0.5 deg: 3.4 deg / 2.3 mm; about the origin 8.0 deg / 3.3 mm;
+// seeds 7 and 8: 3.0 and 2.8 deg against 6.9 and 7.0). With the default 2 deg, which lets a
+// pushed part turn as fast as a turntable spins it, more of the slide goes into the spin: 5.0
+// deg / 2.6 mm, seeds 7 to 11 3.9 to 6.0 deg.
 TEST(PartTracker, FollowsAPushedHalfBuriedPipeWithoutSpinning) {
   TrackResult r;
   Pose truth;
   ASSERT_NO_FATAL_FAILURE(trackPushedTenCm("pipe", 6, r, truth));
-  EXPECT_LT(rotErrDeg(r.T_cell_part, truth), 5.0);
+  EXPECT_LT(rotErrDeg(r.T_cell_part, truth), 6.5);
   EXPECT_LT(transErrMm(r.T_cell_part, truth), 6.0);
 }
 
@@ -242,7 +244,8 @@ TEST(PartTracker, FollowsAPushedHalfBuriedPipeWithoutSpinning) {
 // first frame, 48 deg in 120 frames. The filter starts it still, whose turn noise is too small to
 // follow: without the disagreement check it holds the cup nearly still while the fits without it
 // turn with the handle; with it the filter starts again from what they ask (measured at the last
-// frame: 17.1 deg off after 3 restarts, 46.6 deg without the check).
+// frame: 1.3 deg off after 1 restart, 46.6 deg without the check; 17.1 deg after 3 restarts with
+// a pushed part's turn noise of 0.5 deg rather than the default 2).
 TEST(PartTracker, FilterThatHoldsASpunPartStillStartsAgain) {
   const Sequence s = makeSequence("cup", 0.5, 120, 0.0, 0.4, 31);
   auto lastError = [&](int reset_frames, int* resets) {

@@ -80,11 +80,11 @@ struct StatusConfig {
 struct FilterConfig {
   double data_inflation = 10;  ///< a fit counts this many times less than its residuals claim (neighbouring voxels
                                ///< share noise); 0 = off: every frame registered on its own from the last pose
-  double q_yaw_deg = 0.5;      ///< deg per frame: process noise of a turn about the vertical (a pushed part)
+  double q_yaw_deg = 2.0;      ///< deg per frame: process noise of a turn about the vertical (a pushed part)
   double q_tilt_deg = 0.01;    ///< deg per frame: of a tip about a horizontal axis
   double q_xy = 0.001;         ///< m per frame: of a horizontal slide
   double q_z = 0.0002;         ///< m per frame: of a rise or a sink
-  double still_turn = 0.04;    ///< a still part's turn noise: this fraction of q_yaw_deg and q_tilt_deg
+  double still_turn = 0.01;    ///< a still part's turn noise: this fraction of q_yaw_deg and q_tilt_deg
   double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames frames...
   double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
   int moving_frames = 10;             ///< frames (1/3 s at 30 fps)
