@@ -105,29 +105,39 @@ PosePrior PartTracker::predicted() const {
 //   no disagreement;
 // - by what it asks of the pose in the ways a pushed part moves (weighed by what the scan sees
 //   against reset_frames frames of a pushed part's process noise: a tip is not asked for).
-// Both beyond their limits, the filter starts again from its pose moved as this frame asks.
+// Both beyond their limits, and the free fits explaining the scan at least as well as the
+// filter's over those frames (their mean inlier ratio not lower), the filter starts again from
+// its pose moved as this frame asks. (At the end of a push, the part against the box wall, free
+// fits disagreed with the filter while matching fewer template points than its fit, and a
+// restart from them lost the cube: Table II, seed 2.)
 bool PartTracker::restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
                                 const Matrix6d& prior_information) {
   const FilterConfig& f = config_.filter;
   const StatusConfig& s = config_.status;
   if (!free.ok() || !isValidPose(free.T_target_source, 1e-6) || free.inlier_ratio < s.tracking_min_inlier_ratio ||
       free.rms > s.tracking_max_rms) {
-    differences_.clear();  // a doubtful free fit says nothing, and the mean starts again
+    disagreements_.clear();  // a doubtful free fit says nothing, and the mean starts again
     return false;
   }
   const Vector6d difference = deviation(free.T_target_source, filtered.T_target_source);
-  differences_.push_back(difference);
-  if (differences_.size() > static_cast<std::size_t>(f.reset_frames)) differences_.pop_front();
-  if (differences_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
+  disagreements_.push_back({difference, free.inlier_ratio - filtered.inlier_ratio});
+  if (disagreements_.size() > static_cast<std::size_t>(f.reset_frames)) disagreements_.pop_front();
+  if (disagreements_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
+  const double n = static_cast<double>(disagreements_.size());
   Vector6d mean = Vector6d::Zero();
-  for (const Vector6d& d : differences_) mean += d / static_cast<double>(differences_.size());
+  double inlier_gain = 0;
+  for (const Disagreement& d : disagreements_) {
+    mean += d.difference / n;
+    inlier_gain += d.inlier_gain / n;
+  }
+  if (inlier_gain < 0) return false;
 
   const Matrix6d seen = free.information / f.data_inflation;
   // A half-turn and a metre of uncertainty keep an unseen direction's inverse finite.
   Vector6d vague;
   vague << Eigen::Vector3d::Constant(1 / (M_PI * M_PI)), Eigen::Vector3d::Constant(1.0);
   const Matrix6d uncertainty = prior_information.inverse() + (seen + Matrix6d(vague.asDiagonal())).inverse();
-  const double chi2 = static_cast<double>(differences_.size()) * mean.dot(uncertainty.ldlt().solve(mean));
+  const double chi2 = n * mean.dot(uncertainty.ldlt().solve(mean));
   const Vector6d motion = static_cast<double>(f.reset_frames * f.reset_frames) * processVariance();
   const Matrix6d loose = motion.cwiseInverse().asDiagonal();
   const Eigen::LDLT<Matrix6d> ask(loose + seen);
@@ -137,7 +147,7 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
     return false;
   T_cell_part_ = moved(filtered.T_target_source, ask.solve(seen * difference));
   information_ = loose + seen;
-  differences_.clear();
+  disagreements_.clear();
   return true;
 }
 

@@ -117,7 +117,13 @@ class PartTracker {
   Matrix6d information_ = Matrix6d::Zero();
   std::deque<Pose> recent_;  ///< the last poses tracked (the filter's motion test)
   bool moving_ = false;
-  std::deque<Vector6d> differences_;  ///< the fit without the filter less the filter's, the last frames
+  /// The fit without the filter against the filter's, the last frames: its pose less the filter's, and its
+  /// inlier ratio less the filter's.
+  struct Disagreement {
+    Vector6d difference;
+    double inlier_gain;
+  };
+  std::deque<Disagreement> disagreements_;
   void resetInformation();
   Vector6d processVariance() const;  ///< a pushed part's, per frame (PosePrior's coordinates)
   bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
