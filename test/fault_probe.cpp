@@ -403,8 +403,10 @@ int report(const std::string& fault, const std::string& log_path, const std::str
     int frames = 0, one_camera = 0, good = 0, poses = 0;
     double worst_rot = 0, worst_trans = 0, longest_lost = 0;
     std::int64_t lost_since = 0;
+    // Half a second off either end: the fault's utime is the wall time the sim applied it, and a
+    // sim catching up after a stall ends the 20 s of sim time a little early in wall time.
     for (const point_cloud_t& p : log.clouds)
-      if (p.utime > at + 500000 && p.utime < until) ++frames, one_camera += p.num_sources == 1;
+      if (p.utime > at + 500000 && p.utime < until - 500000) ++frames, one_camera += p.num_sources == 1;
     for (const part_pose_t& p : log.poses) {
       if (p.utime <= at + 500000 || p.utime >= until) continue;
       ++poses;
