@@ -1,5 +1,6 @@
 #include "depowder/tracker/part_tracker.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -66,7 +67,7 @@ void PartTracker::resetInformation() {
 
 // The filter's prediction for this frame: the part stays where it was, less sure by the process
 // noise (cell axes: it turns about the vertical and slides, it seldom tips or sinks; a still part
-// turns far less than a pushed one).
+// turns far less than a pushed one, and one that moved a little, a little more).
 Vector6d PartTracker::processVariance() const {
   const FilterConfig& f = config_.filter;
   const double yaw = f.q_yaw_deg * M_PI / 180, tilt = f.q_tilt_deg * M_PI / 180;
@@ -78,7 +79,8 @@ Vector6d PartTracker::processVariance() const {
 PosePrior PartTracker::predicted() const {
   const FilterConfig& f = config_.filter;
   Vector6d q = processVariance();
-  if (!moving_) q.head<3>() *= f.still_turn * f.still_turn;
+  const double turn = f.still_turn + (1 - f.still_turn) * turn_open_;
+  q.head<3>() *= turn * turn;
   // The part turns about the middle of what the cameras see of it, not about its origin: in
   // PosePrior's coordinates a turn w about c also moves the origin by w x (t - c).
   Matrix6d M = Matrix6d::Identity();
@@ -358,8 +360,16 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     // Still or moving: how far the part went over the last moving_frames frames.
     recent_.push_back(T_cell_part_);
     if (recent_.size() > static_cast<std::size_t>(config_.filter.moving_frames) + 1) recent_.pop_front();
-    moving_ = translationDistance(recent_.front(), recent_.back()) > config_.filter.moving_translation ||
-              rotationDistanceDeg(recent_.front(), recent_.back()) > config_.filter.moving_rotation_deg;
+    // A turn opens the turn noise; a slide opens it from the threshold to moving_full times it.
+    const FilterConfig& f = config_.filter;
+    const double slide = translationDistance(recent_.front(), recent_.back());
+    const bool turned = rotationDistanceDeg(recent_.front(), recent_.back()) > f.moving_rotation_deg;
+    moving_ = turned || slide > f.moving_translation;
+    const double full = f.moving_full * f.moving_translation;
+    turn_open_ = !moving_ ? 0
+                 : turned || slide >= full
+                     ? 1
+                     : (slide - f.moving_translation) / (full - f.moving_translation);
   }
   r.moving = moving_;
   r.T_cell_part = T_cell_part_;

@@ -76,7 +76,9 @@ struct StatusConfig {
 /// part in powder slides and turns about the vertical, it seldom tips, so a roll that the scan
 /// cannot tell from a slide is resolved as the slide. A part that has not moved over the last
 /// moving_frames frames is still: its turns' process noise shrinks by still_turn, so a still
-/// tube's unseen spin does not wander with the noise.
+/// tube's unseen spin does not wander with the noise; a part that moved only a little more is
+/// given a little more (moving_full): a still part whose fit was shifted by the nozzle is not
+/// handed a pushed part's turns.
 struct FilterConfig {
   double data_inflation = 10;  ///< a fit counts this many times less than its residuals claim (neighbouring voxels
                                ///< share noise); 0 = off: every frame registered on its own from the last pose
@@ -88,6 +90,8 @@ struct FilterConfig {
   double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames frames...
   double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
   int moving_frames = 10;             ///< frames (1/3 s at 30 fps)
+  double moving_full = 2;  ///< a moving part's turn noise opens from a still part's (at the thresholds above) to a
+                           ///< pushed part's (at this many times them), in proportion; 1 = at once
   double initial_deg = 0.5;           ///< uncertainty of the initial pose (and of a refit's), deg...
   double initial_m = 0.001;           ///< ...and m
   /// The disagreement check: each frame the scan is also registered without the filter. Over

@@ -117,6 +117,7 @@ class PartTracker {
   Matrix6d information_ = Matrix6d::Zero();
   std::deque<Pose> recent_;  ///< the last poses tracked (the filter's motion test)
   bool moving_ = false;
+  double turn_open_ = 0;  ///< 0 (still) .. 1 (pushed): how far the turn noise is open (FilterConfig::moving_full)
   /// The fit without the filter against the filter's, the last frames: its pose less the filter's, and its
   /// inlier ratio less the filter's.
   struct Disagreement {
