@@ -76,6 +76,9 @@ std::string validate(const TrackerConfig& c) {
   if (!positive(c.filter.reset_chi2) || !positive(c.filter.reset_deg) || !positive(c.filter.reset_m))
     return "filter.reset_chi2, filter.reset_deg and filter.reset_m must be > 0";
   if (c.filter.reset_frames < 0) return "filter.reset_frames must be >= 0 (0 = no disagreement check)";
+  if (!(std::isfinite(c.filter.reset_inlier_margin) && c.filter.reset_inlier_margin >= 0 &&
+        c.filter.reset_inlier_margin <= 1))
+    return "filter.reset_inlier_margin must be in [0, 1]";
   if (!positive(c.filter.initial_deg) || !positive(c.filter.initial_m))
     return "filter.initial_deg and filter.initial_m must be > 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
@@ -130,6 +133,7 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"filter.reset_chi2", &c.filter.reset_chi2},
                                               {"filter.reset_deg", &c.filter.reset_deg},
                                               {"filter.reset_m", &c.filter.reset_m},
+                                              {"filter.reset_inlier_margin", &c.filter.reset_inlier_margin},
                                               {"progress.grid_cell", &c.progress.grid_cell},
                                               {"progress.contour_spacing", &c.progress.contour_spacing},
                                               {"progress.footprint_reuse", &c.progress.footprint_reuse}};

@@ -98,11 +98,14 @@ struct FilterConfig {
   /// reset_frames frames in a row, the mean difference of the two fits is tested against both
   /// fits' uncertainties (reset_chi2) and by what it asks of the pose in the ways a pushed part
   /// moves (turns about the vertical and slides, reset_frames frames of process noise: beyond
-  /// reset_deg or reset_m). Both beyond: the filter held a moving part still, and starts again
-  /// from its pose moved as asked. reset_frames 0 = no check.
+  /// reset_deg or reset_m). Both beyond, and the free fits matching about as many template
+  /// points as the filter's (reset_inlier_margin): the filter held a moving part still, and starts
+  /// again from its pose moved as asked. reset_frames 0 = no check.
   double reset_chi2 = 300;  ///< chi-square of the mean difference, 6 dof (frames are not independent)
   double reset_deg = 4;     ///< deg
   double reset_m = 0.002;   ///< m
+  double reset_inlier_margin = 0.02;  ///< and the free fits' mean inlier ratio is at most this below the filter's
+                                      ///< (they explain the scan about as well); 1 = no such test
   int reset_frames = 8;
 };
 
