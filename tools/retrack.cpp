@@ -34,8 +34,9 @@ int usage(const std::string& error = "") {
          "  error's rotation axis and translation in the part frame), the fit's inlier ratio and RMS, P_cad against\n"
          "  the cameras' lines of sight (sight seen/in front/hidden samples), the nozzle's tool and tip\n"
          "  (cell axes, from the part's origin), MOVING while the filter takes the part for moving\n"
-         "  (filter.moving_translation), REFIT when the refit replaced the pose, RESET when the filter started again (filter.reset_frames) and TEMPLATE when the "
-         "template was derived again (Alg. 1, line 13); then\n"
+         "  (filter.moving_translation), REFIT when the refit replaced the pose, RESET when the filter\n"
+         "  started again (filter.reset_frames) and TEMPLATE when the template was derived again\n"
+         "  (Alg. 1, line 13); then\n"
          "  the error percentiles over the frames that reported TRACKING.\n"
          "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
          "  no truth.\n";
@@ -103,7 +104,7 @@ int main(int argc, char** argv) {
     std::map<std::string, std::vector<double>> rot, trans;
     std::map<std::string, std::map<std::string, int>> statuses;
     std::map<std::string, std::pair<double, double>> last;  // deg, cm
-    std::map<std::string, int> refits, resets, moving;  // frames, per part
+    std::map<std::string, int> refits, resets, moving;      // frames, per part
     for (const lcm::LogEvent* e; (e = log.readNextEvent()) != nullptr;) {
       if (e->channel == prefix + "SIM_TRUTH") {
         sim_truth_t m;
@@ -164,9 +165,8 @@ int main(int argc, char** argv) {
                 : tool == waypoint_t::TOOL_VACUUM ? "vac"
                                                   : "off",
                 nozzle_mm.x(), nozzle_mm.y(), nozzle_mm.z(), result && result->moving ? " MOVING" : "",
-                result && result->refit ? " REFIT" : "",
-                result && result->reset ? " RESET" : "", result && result->template_updated ? " TEMPLATE" : "",
-                p.status_reason.c_str());
+                result && result->refit ? " REFIT" : "", result && result->reset ? " RESET" : "",
+                result && result->template_updated ? " TEMPLATE" : "", p.status_reason.c_str());
           }
         }
       }

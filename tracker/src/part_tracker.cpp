@@ -368,10 +368,9 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     const bool turned = rotationDistanceDeg(recent_.front(), recent_.back()) > f.moving_rotation_deg;
     moving_ = turned || slide > f.moving_translation;
     const double full = f.moving_full * f.moving_translation;
-    turn_open_ = !moving_ ? 0
-                 : turned || slide >= full
-                     ? 1
-                     : (slide - f.moving_translation) / (full - f.moving_translation);
+    turn_open_ = !moving_                  ? 0
+                 : turned || slide >= full ? 1
+                                           : (slide - f.moving_translation) / (full - f.moving_translation);
   }
   r.moving = moving_;
   r.T_cell_part = T_cell_part_;

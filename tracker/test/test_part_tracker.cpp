@@ -349,9 +349,10 @@ TEST(PartTracker, StillPipeNudgedAsideIsNotGivenAPushedPartsTurns) {
   int at_once_moving = 0, graded_moving = 0;
   const double at_once = worstTurn(1, &at_once_moving);
   const double graded = worstTurn(defaults().filter.moving_full, &graded_moving);
-  std::printf("still pipe shown 2.5 mm aside for 20 frames: worst %.2f deg (%d frames moving), %.2f with the turn "
-              "noise opened at once (%d)\n",
-              graded, graded_moving, at_once, at_once_moving);
+  std::printf(
+      "still pipe shown 2.5 mm aside for 20 frames: worst %.2f deg (%d frames moving), %.2f with the turn "
+      "noise opened at once (%d)\n",
+      graded, graded_moving, at_once, at_once_moving);
   EXPECT_GT(at_once, 6.0);  // the scene shows the spin (else this test would test nothing)
   EXPECT_LT(graded, 4.0);
 }
@@ -502,6 +503,14 @@ TEST(PartTracker, ConstructorRejectsBadPartsAndConfigs) {
   TrackerConfig f;
   f.filter.q_tilt_deg = 0;  // would make the predicted information singular
   EXPECT_NE(message([&] { PartTracker("cube", cube, Pose::Identity(), 0.01, f); }).find("q_tilt_deg"),
+            std::string::npos);
+  TrackerConfig ramp;
+  ramp.filter.moving_full = 0.5;  // the turn noise would be fully open below the motion threshold
+  EXPECT_NE(message([&] { PartTracker("cube", cube, Pose::Identity(), 0.01, ramp); }).find("moving_full"),
+            std::string::npos);
+  TrackerConfig margin;
+  margin.filter.reset_inlier_margin = std::nan("");
+  EXPECT_NE(message([&] { PartTracker("cube", cube, Pose::Identity(), 0.01, margin); }).find("reset_inlier_margin"),
             std::string::npos);
 }
 

@@ -90,10 +90,10 @@ struct FilterConfig {
   double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames frames...
   double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
   int moving_frames = 10;             ///< frames (1/3 s at 30 fps)
-  double moving_full = 2;  ///< a moving part's turn noise opens from a still part's (at the thresholds above) to a
-                           ///< pushed part's (at this many times them), in proportion; 1 = at once
-  double initial_deg = 0.5;           ///< uncertainty of the initial pose (and of a refit's), deg...
-  double initial_m = 0.001;           ///< ...and m
+  double moving_full = 2;    ///< a moving part's turn noise opens from a still part's (at the thresholds above) to a
+                             ///< pushed part's (at this many times them), in proportion; 1 = at once
+  double initial_deg = 0.5;  ///< uncertainty of the initial pose (and of a refit's), deg...
+  double initial_m = 0.001;  ///< ...and m
   /// The disagreement check: each frame the scan is also registered without the filter. Over
   /// reset_frames frames in a row, the mean difference of the two fits is tested against both
   /// fits' uncertainties (reset_chi2) and by what it asks of the pose in the ways a pushed part
@@ -101,9 +101,9 @@ struct FilterConfig {
   /// reset_deg or reset_m). Both beyond, and the free fits matching about as many template
   /// points as the filter's (reset_inlier_margin): the filter held a moving part still, and starts
   /// again from its pose moved as asked. reset_frames 0 = no check.
-  double reset_chi2 = 300;  ///< chi-square of the mean difference, 6 dof (frames are not independent)
-  double reset_deg = 4;     ///< deg
-  double reset_m = 0.002;   ///< m
+  double reset_chi2 = 300;            ///< chi-square of the mean difference, 6 dof (frames are not independent)
+  double reset_deg = 4;               ///< deg
+  double reset_m = 0.002;             ///< m
   double reset_inlier_margin = 0.02;  ///< and the free fits' mean inlier ratio is at most this below the filter's
                                       ///< (they explain the scan about as well); 1 = no such test
   int reset_frames = 8;
