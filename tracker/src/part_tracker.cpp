@@ -359,11 +359,11 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (!reset) T_cell_part_ = reg.T_target_source;
   if (filter) {
     if (!reset) information_ = prior.information + reg.information / config_.filter.data_inflation;
-    // Still or moving: how far the part went over the last moving_frames frames.
-    recent_.push_back(T_cell_part_);
-    if (recent_.size() > static_cast<std::size_t>(config_.filter.moving_frames) + 1) recent_.pop_front();
-    // A turn opens the turn noise; a slide opens it from the threshold to moving_full times it.
+    // Still or moving: how far the part went over the last moving_frames frames. A turn opens
+    // the turn noise; a slide opens it from the threshold to moving_full times it.
     const FilterConfig& f = config_.filter;
+    recent_.push_back(T_cell_part_);
+    if (recent_.size() > static_cast<std::size_t>(f.moving_frames) + 1) recent_.pop_front();
     const double slide = translationDistance(recent_.front(), recent_.back());
     const bool turned = rotationDistanceDeg(recent_.front(), recent_.back()) > f.moving_rotation_deg;
     moving_ = turned || slide > f.moving_translation;

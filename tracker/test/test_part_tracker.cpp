@@ -2,6 +2,7 @@
 // parts buried in powder (bench/scene.hpp), against the ground-truth poses.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -58,6 +59,18 @@ Sequence makeSequence(const std::string& part, double visibility, int n, double 
   s.T_init.translation() += Eigen::Vector3d(0.002, -0.002, 0.001);  // 3 mm
   s.T_init.linear() = Eigen::AngleAxisd(2.0 * M_PI / 180, Eigen::Vector3d(1, 1, 0).normalized()) * s.T_init.linear();
   return s;
+}
+
+// Tracks every frame (none may be lost) and returns the largest `measure` of the results.
+template <class Measure>
+double worstOver(PartTracker& tracker, const std::vector<Cloud>& frames, Measure measure) {
+  double worst = 0;
+  for (const Cloud& frame : frames) {
+    const TrackResult r = tracker.track(frame);
+    EXPECT_NE(r.status, TrackStatus::kLost) << r.reason;
+    worst = std::max(worst, measure(r));
+  }
+  return worst;
 }
 
 class EveryPart : public ::testing::TestWithParam<std::string> {};
@@ -298,13 +311,9 @@ TEST(PartTracker, StillPipeDoesNotRiseWhenThePowderBesideItIsLowered) {
     c.visibility.cover = cover_test;
     c.visibility.powder_scan_margin = scan_margin;
     PartTracker tracker("pipe", mesh, T, 0.008, c);
-    double worst = 0;
-    for (const Cloud& frame : frames) {
-      const TrackResult r = tracker.track(frame);
-      EXPECT_NE(r.status, TrackStatus::kLost) << r.reason;
-      worst = std::max(worst, 1000 * (r.T_cell_part.translation().z() - T.translation().z()));
-    }
-    return worst;
+    return worstOver(tracker, frames, [&](const TrackResult& r) {
+      return 1000 * (r.T_cell_part.translation().z() - T.translation().z());
+    });
   };
   const TrackerConfig d = defaults();
   const double rise = worstRise(d.visibility.cover, d.visibility.powder_scan_margin);
@@ -337,14 +346,10 @@ TEST(PartTracker, StillPipeNudgedAsideIsNotGivenAPushedPartsTurns) {
     TrackerConfig c = defaults();
     c.filter.moving_full = moving_full;
     PartTracker tracker("pipe", mesh, T, 0.008, c);
-    double worst = 0;
-    for (const Cloud& frame : frames) {
-      const TrackResult r = tracker.track(frame);
-      EXPECT_NE(r.status, TrackStatus::kLost) << r.reason;
+    return worstOver(tracker, frames, [&](const TrackResult& r) {
       *moving += r.moving;
-      worst = std::max(worst, rotErrDeg(r.T_cell_part, T));
-    }
-    return worst;
+      return rotErrDeg(r.T_cell_part, T);
+    });
   };
   int at_once_moving = 0, graded_moving = 0;
   const double at_once = worstTurn(1, &at_once_moving);
