@@ -55,6 +55,8 @@ const char* kUsage =
     "  --from FILE            report: rebuild DIR/results.md from a JSON file that report --json wrote\n"
     "  --notes FILE           report: markdown appended verbatim (default tools/eval/report_notes.md)\n"
     "  --no-nozzle            static: no nozzle in the cell (what its occlusion and interference cost)\n"
+    "  --self-filter          static, moving: the camera proxy removes the nozzle's points, as ROBOT_STATE has it\n"
+    "                         do in the cell (default: the nozzle stays in the scan, the paper's interference)\n"
     "  --set KEY=VALUE        a tracker setting for every method (e.g. filter.data_inflation=0); repeatable\n"
     "  --quiet                no progress bar\n";
 
@@ -92,7 +94,7 @@ struct Args {
   std::uint32_t seed = 1;
   std::vector<double> visibilities;
   double duration = 0;
-  bool quiet = false, no_nozzle = false;
+  bool quiet = false, no_nozzle = false, self_filter = false;
   std::vector<std::pair<std::string, double>> sets;  ///< --set key=value
   std::string command_line;                          ///< as typed, for the report
 };
@@ -110,6 +112,10 @@ Args parse(int argc, char** argv) {
     }
     if (f == "--no-nozzle") {
       a.no_nozzle = true;
+      continue;
+    }
+    if (f == "--self-filter") {
+      a.self_filter = true;
       continue;
     }
     if (i + 1 >= argc) throw std::invalid_argument("missing value after " + f);
@@ -176,6 +182,8 @@ Args parse(int argc, char** argv) {
     }
   }
   if (!a.mesh.empty() && !a.parts.empty()) throw std::invalid_argument("give --part or --mesh, not both");
+  if (a.self_filter && a.command == "speed") throw std::invalid_argument("--self-filter: speed has no nozzle");
+  if (a.self_filter && a.no_nozzle) throw std::invalid_argument("--self-filter needs the nozzle (not --no-nozzle)");
   if (!a.mesh.empty() && a.xi <= 0) throw std::invalid_argument("--mesh needs --xi (m)");
   if (a.mesh.empty() && a.xi > 0 && a.parts.empty()) throw std::invalid_argument("--xi goes with --mesh");
   return a;
@@ -246,6 +254,7 @@ StaticOptions staticOptions(const Args& a) {
   if (!a.visibilities.empty()) o.visibilities = a.visibilities;
   if (a.duration > 0) o.duration = a.duration;
   o.nozzle = !a.no_nozzle;
+  o.self_filter = a.self_filter;
   o.seed = a.seed;
   return o;
 }
@@ -262,6 +271,7 @@ SpeedOptions speedOptions(const Args& a, int trials) {
 MovingOptions movingOptions(const Args& a, int trials) {
   MovingOptions o;
   if (trials > 0) o.trials = trials;
+  o.self_filter = a.self_filter;
   o.seed = a.seed;
   return o;
 }

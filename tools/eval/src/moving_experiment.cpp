@@ -100,14 +100,16 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
           cut = true;
           break;
         }
+        sim::ArmState arm;
         advanceFrame(world, cell, [&](double t) {
-          const sim::ArmState arm = push.update(t);
+          arm = push.update(t);
           if (arm.nozzle_present)
             world.setNozzle(arm.T_cell_nozzle, arm.tool);
           else
             world.removeNozzle();
         });
-        const Cloud scan = source.capture(world);
+        const bool filtered = o.self_filter && arm.nozzle_present;
+        const Cloud scan = source.capture(world, filtered ? &arm.T_cell_nozzle : nullptr);
         const sim::PartTruth truth = control.trace ? world.partTruth(0) : sim::PartTruth{};
         for (std::size_t m = 0; m < methods.size(); ++m) {
           const tracker::TrackResult tr = trackers[m].track(scan);
@@ -171,6 +173,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   opt.set("push_speed_m_s", o.push_speed);
   opt.set("max_duration_s", o.max_duration);
   opt.set("dig_path", o.dig_path);
+  opt.set("self_filter", o.self_filter);
   opt.set("contact_band", o.contact_band);
   opt.set("success_rot_deg", o.success_rot_deg);
   opt.set("success_trans_m", o.success_trans);

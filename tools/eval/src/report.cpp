@@ -163,7 +163,10 @@ std::string staticSection(const Json& doc) {
              ? "the nozzle (tool off) circling it " + fmt(opt.at("nozzle_standoff_m").number() * 100, 0) +
                    " cm off its bounding box, tip " + fmt(opt.at("nozzle_above_top_m").number() * 100, 0) +
                    " cm above its top, leaning " + fmt(opt.at("nozzle_tilt_deg").number(), 0) + " deg, one lap per " +
-                   fmt(opt.at("nozzle_period_s").number(), 1) + " s (occlusion and interference, paper Fig. 7); "
+                   fmt(opt.at("nozzle_period_s").number(), 1) + " s" +
+                   (opt.has("self_filter") && opt.at("self_filter").boolean()
+                        ? " (occlusion only: the camera proxy's self-filter removes its points); "
+                        : " (occlusion and interference, paper Fig. 7); ")
              : "no nozzle; ")
      << "the tracker starts from the true pose with a seeded error of up to "
      << fmt(opt.at("init_trans_max_m").number() * 1000, 0) << " mm and " << fmt(opt.at("init_rot_max_deg").number(), 0)
@@ -347,7 +350,11 @@ std::string movingSection(const Json& doc, const std::string& note) {
      << "]; the nozzle pushes at " << fmt(opt.at("push_speed_m_s").number() * 100, 0)
      << " cm/s until the part reaches the box wall (sim/push.hpp, rigid-body physics). Success: final error within "
      << fmt(opt.at("success_rot_deg").number(), 0) << " deg and " << fmt(opt.at("success_trans_m").number() * 1000, 0)
-     << " mm. Overall: the mean of the parts.\n\n";
+     << " mm. Overall: the mean of the parts."
+     << (opt.has("self_filter") && opt.at("self_filter").boolean()
+             ? " The camera proxy's self-filter removes the nozzle's points, as in the cell."
+             : " The pushing nozzle stays in the scan (the cell's camera proxy removes it: --self-filter).")
+     << "\n\n";
   md << "| Method |";
   for (const std::string& p : parts) md << " " << p << " |";
   md << " Overall |\n|---|";

@@ -57,13 +57,14 @@ FrameSource::FrameSource(const EvalCell& cell)
     : proxy_(cell.perception, cell.box.size, cameraNames(cell.cameras)),
       max_wait_us_(std::llround(cell.perception.merger.max_wait * 1e6)) {}
 
-Cloud FrameSource::capture(sim::World& world) {
+Cloud FrameSource::capture(sim::World& world, const Pose* T_cell_nozzle) {
   std::int64_t utime = 0;
   for (std::size_t c = 0; c < world.cameras().size(); ++c) {
     const ProxyInput in = toProxyInput(world.render(c));
     utime = in.image.utime;
     proxy_.addDepth(in.image, in.camera, utime);  // arrival = capture time: no transport delay in process
   }
+  if (T_cell_nozzle != nullptr) proxy_.addNozzlePose(utime, *T_cell_nozzle);
   // Every camera's frame is in: the time step is complete (polling after max_wait releases it
   // even if a camera's frame was rejected, as the camera process would).
   Cloud scan;

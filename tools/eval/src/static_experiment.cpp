@@ -82,18 +82,20 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
             cut = true;
             break;
           }
+          Pose T_nozzle = Pose::Identity();
           advanceFrame(world, cell, [&](double t) {
             if (!o.nozzle) return world.removeNozzle();
             const sim::ArmState arm = script.at(t);
             world.setNozzle(arm.T_cell_nozzle, arm.tool);
+            T_nozzle = arm.T_cell_nozzle;
           });
-          const Cloud scan = source.capture(world);
+          const Cloud scan = source.capture(world, o.nozzle && o.self_filter ? &T_nozzle : nullptr);
           const sim::PartTruth truth = world.partTruth(0);
           eta += truth.eta;
           for (std::size_t m = 0; m < methods.size(); ++m) {
             const tracker::TrackResult tr = trackers[m].track(scan);
-            control.record(
-                {"static", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T_true, truth.eta, &tr});
+            control.record({"static", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T_true,
+                            truth.eta, &tr});
             const PoseError e = poseError(tr.T_cell_part, truth.T_cell_part);
             TrialFigures& g = fig[m];
             g.rot_sum += e.rot_deg;
@@ -170,6 +172,7 @@ Json toJson(const StaticResult& result, const StaticOptions& o) {
   opt.set("init_rot_max_deg", o.init_rot_deg);
   opt.set("max_offset_m", o.max_offset);
   opt.set("nozzle", o.nozzle);
+  opt.set("self_filter", o.self_filter);
   opt.set("nozzle_standoff_m", o.nozzle_standoff);
   opt.set("nozzle_above_top_m", o.nozzle_above);
   opt.set("nozzle_period_s", o.nozzle_period);

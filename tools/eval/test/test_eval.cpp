@@ -15,6 +15,7 @@
 
 #include "depowder/eval/experiment.hpp"
 #include "depowder/eval/report.hpp"
+#include "depowder/parts.hpp"
 
 using namespace depowder;
 using namespace depowder::eval;
@@ -91,6 +92,41 @@ TEST(EvalScene, ConversionKeepsTheFrame) {
   EXPECT_DOUBLE_EQ(in.camera.fy, 101);
   EXPECT_DOUBLE_EQ(in.camera.max_range, 9);
   EXPECT_TRUE(in.camera.T_cell_camera.isApprox(f.T_cell_camera));
+}
+
+// --self-filter: the nozzle's pose goes to the camera proxy, which removes its points, as
+// ROBOT_STATE has it do in the cell; the rest of the scan stays.
+TEST(EvalScene, SelfFilterTakesTheNozzleOutOfTheScan) {
+  const EvalCell cell = testCell();
+  const Mesh cube = parts::byName("cube");
+  sim::World world(cell.sim, cell.box, {{"cube", cube, placePart(cube, 0.3, {-0.06, 0.0}, 0.03), 1000}}, cell.cameras,
+                   3);
+  world.setPowderLevel(0.05);  // the cube half buried
+  // Upright, tip 6 cm over the powder beside the cube (+z of the nozzle frame sprays down).
+  Pose T_cell_nozzle = Pose::Identity();
+  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T_cell_nozzle.translation() << 0.08, 0.03, 0.11;
+  world.setNozzle(T_cell_nozzle, sim::Tool::kOff);
+  const Pose T_nozzle_cell = T_cell_nozzle.inverse(Eigen::Isometry);
+  const double r = cell.sim.nozzle.radius;
+  auto onNozzle = [&](const Cloud& scan, double grow) {
+    int n = 0;
+    for (const Point& p : scan) {
+      const Point q = T_nozzle_cell * p;
+      n += q.head<2>().norm() < r + grow && q.z() > -cell.sim.nozzle.length && q.z() < grow;
+    }
+    return n;
+  };
+  FrameSource plain(cell), filtered(cell);
+  const Cloud with = plain.capture(world);
+  const Cloud without = filtered.capture(world, &T_cell_nozzle);
+  EXPECT_GT(onNozzle(with, 0.003), 30);    // the cameras see the nozzle's body...
+  EXPECT_EQ(onNozzle(without, 0.003), 0);  // ...and the self-filter takes all of it out
+  // Away from the nozzle (beyond its margin and a voxel) the scan is the same but for the noise.
+  const double far = perception::SelfFilterConfig{}.margin + 0.01;
+  const double kept = static_cast<double>(without.size() - onNozzle(without, far)),
+               all = static_cast<double>(with.size() - onNozzle(with, far));
+  EXPECT_NEAR(kept / all, 1.0, 0.02);
 }
 
 // One trial of 15 frames at 60 %, seed 7.
@@ -195,10 +231,15 @@ TEST(EvalStatic, AuthorsDataTermShowsThePapersGaps) {
   o.trials = 1;
   o.seed = 1;
   EvalCell authors = testCell();
-  for (const auto& [key, value] : std::vector<std::pair<std::string, double>>{
-           {"icp.tangent_weight", 1}, {"icp.scan_weight", 0}, {"icp.normal_min_cos", -1}, {"icp.kernel_scale", 0},
-           {"visibility.powder_radius", 0}, {"visibility.cover", 0}, {"visibility.powder_scan_margin", 0},
-           {"filter.data_inflation", 0}, {"refit_margin", 0}})
+  for (const auto& [key, value] : std::vector<std::pair<std::string, double>>{{"icp.tangent_weight", 1},
+                                                                              {"icp.scan_weight", 0},
+                                                                              {"icp.normal_min_cos", -1},
+                                                                              {"icp.kernel_scale", 0},
+                                                                              {"visibility.powder_radius", 0},
+                                                                              {"visibility.cover", 0},
+                                                                              {"visibility.powder_scan_margin", 0},
+                                                                              {"filter.data_inflation", 0},
+                                                                              {"refit_margin", 0}})
     tracker::setField(authors.tracker, key, value);
   const StaticResult gaps = runStatic(authors, {defaultPart("cup")}, allMethods(), o);
   ASSERT_EQ(gaps.rows.size(), 3u);
@@ -321,7 +362,8 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   std::remove(json.c_str());
   for (const std::string bad :
        {" static --methods icp", " static --part teapot", " static --trials 0", " static --mesh x.stl",
-        " static --set icp.nothing=1", " frobnicate", " speed --trace /dev/null"}) {
+        " static --set icp.nothing=1", " frobnicate", " speed --trace /dev/null", " speed --self-filter",
+        " static --no-nozzle --self-filter"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }

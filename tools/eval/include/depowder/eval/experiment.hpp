@@ -49,13 +49,14 @@ std::string traceLine(const TraceRow& row);
 
 struct StaticOptions {
   std::vector<double> visibilities{0.2, 0.4, 0.6, 0.8, 1.0};  ///< eta set by World::digToVisibility
-  int trials = 5;                 ///< per part and visibility, each a seeded yaw, offset, noise and initial error
-  double duration = 2.5;          ///< s of frames per trial (at EvalCell::fps)
-  double init_trans = 0.005;      ///< m, largest error of the tracker's initial pose (uniform in [0, this])
-  double init_rot_deg = 3.0;      ///< deg, largest initial rotation error (random axis, uniform angle)
-  double max_offset = 0.02;       ///< m, the part's centre is placed uniformly within this of the box centre
-  double bottom_z = 0.03;         ///< m, the part's bottom above the box floor
-  bool nozzle = true;             ///< false: no nozzle in the cell (ablation: what its interference costs)
+  int trials = 5;             ///< per part and visibility, each a seeded yaw, offset, noise and initial error
+  double duration = 2.5;      ///< s of frames per trial (at EvalCell::fps)
+  double init_trans = 0.005;  ///< m, largest error of the tracker's initial pose (uniform in [0, this])
+  double init_rot_deg = 3.0;  ///< deg, largest initial rotation error (random axis, uniform angle)
+  double max_offset = 0.02;   ///< m, the part's centre is placed uniformly within this of the box centre
+  double bottom_z = 0.03;     ///< m, the part's bottom above the box floor
+  bool nozzle = true;         ///< false: no nozzle in the cell (ablation: what its interference costs)
+  bool self_filter = false;   ///< the camera proxy removes the nozzle's points, as in the cell (its occlusion stays)
   double nozzle_standoff = 0.03;  ///< m from the part's bounding box to the nozzle axis (x and y semi-axes)
   double nozzle_above = 0.01;     ///< m, nozzle tip above the part's top
   double nozzle_period = 2.0;     ///< s per revolution around the part
@@ -136,6 +137,7 @@ struct MovingOptions {
   bool dig_path = true;               ///< dig the powder to the visibility's level along the push path to the wall
   double dig_step = 0.01;             ///< m between the poses the path is dug at
   double max_duration = 30;           ///< s of simulated time at most per trial
+  bool self_filter = false;           ///< the camera proxy removes the pushing nozzle's points, as in the cell
   double success_rot_deg = 15;        ///< Table II: final error within 15 deg...
   double success_trans = 0.015;       ///< ... and 15 mm
   double bottom_z = 0.03;

@@ -60,8 +60,10 @@ ProxyInput toProxyInput(const sim::DepthImage& frame);
 class FrameSource {
  public:
   FrameSource(const EvalCell& cell);
-  /// P_i at the world's current time (cell frame, cropped, 5 mm voxels, outliers removed).
-  Cloud capture(sim::World& world);
+  /// P_i at the world's current time (cell frame, cropped, 5 mm voxels, outliers removed). With
+  /// `T_cell_nozzle`, the proxy's self-filter removes the nozzle's points, as ROBOT_STATE has it do
+  /// in the cell; without, the nozzle stays in the scan (the paper's interference).
+  Cloud capture(sim::World& world, const Pose* T_cell_nozzle = nullptr);
   std::int64_t framesDropped() const { return proxy_.counters().dropped(); }
 
  private:
