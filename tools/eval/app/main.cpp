@@ -57,6 +57,9 @@ const char* kUsage =
     "  --no-nozzle            static: no nozzle in the cell (what its occlusion and interference cost)\n"
     "  --self-filter          static, moving: the camera proxy removes the nozzle's points, as ROBOT_STATE has it\n"
     "                         do in the cell (default: the nozzle stays in the scan, the paper's interference)\n"
+    "  --probe N              moving: every N frames, a tracker without the filter started at the true pose fits\n"
+    "                         that frame's scan 4 times; how far it ends from the truth shows how well the scan\n"
+    "                         alone pins the part (printed, and probe_* in the JSON)\n"
     "  --set KEY=VALUE        a tracker setting for every method (e.g. filter.data_inflation=0); repeatable\n"
     "  --quiet                no progress bar\n";
 
@@ -95,6 +98,7 @@ struct Args {
   std::vector<double> visibilities;
   double duration = 0;
   bool quiet = false, no_nozzle = false, self_filter = false;
+  int probe = 0;                                     ///< moving: --probe N
   std::vector<std::pair<std::string, double>> sets;  ///< --set key=value
   std::string command_line;                          ///< as typed, for the report
 };
@@ -143,6 +147,11 @@ Args parse(int argc, char** argv) {
       const double n = number(f, v);
       if (!(n >= 1 && n <= 1000 && n == std::floor(n))) throw std::invalid_argument(f + " must be an integer 1..1000");
       (f == "--trials" ? a.trials : f == "--speed-trials" ? a.speed_trials : a.moving_trials) = static_cast<int>(n);
+    } else if (f == "--probe") {
+      const double n = number(f, v);
+      if (!(n >= 1 && n <= 10000 && n == std::floor(n)))
+        throw std::invalid_argument("--probe must be an integer 1..10000 (frames)");
+      a.probe = static_cast<int>(n);
     } else if (f == "--seed") {
       const double s = number(f, v);
       if (!(s >= 0 && s <= 4294967295.0 && s == std::floor(s)))
@@ -183,6 +192,7 @@ Args parse(int argc, char** argv) {
   }
   if (!a.mesh.empty() && !a.parts.empty()) throw std::invalid_argument("give --part or --mesh, not both");
   if (a.self_filter && a.command == "speed") throw std::invalid_argument("--self-filter: speed has no nozzle");
+  if (a.probe > 0 && a.command != "moving") throw std::invalid_argument("--probe is for moving");
   if (a.self_filter && a.no_nozzle) throw std::invalid_argument("--self-filter needs the nozzle (not --no-nozzle)");
   if (!a.mesh.empty() && a.xi <= 0) throw std::invalid_argument("--mesh needs --xi (m)");
   if (a.mesh.empty() && a.xi > 0 && a.parts.empty()) throw std::invalid_argument("--xi goes with --mesh");
@@ -272,6 +282,7 @@ MovingOptions movingOptions(const Args& a, int trials) {
   MovingOptions o;
   if (trials > 0) o.trials = trials;
   o.self_filter = a.self_filter;
+  o.probe_every = a.probe;
   o.seed = a.seed;
   return o;
 }
@@ -282,6 +293,11 @@ void printMoving(const MovingResult& r) {
   for (const MovingRow& row : r.rows)
     std::printf("%-10s %-11s %4.0f%% %7.0f%% %12.2f %12.3f %9.1f\n", row.part.c_str(), row.method.c_str(),
                 row.visibility * 100, row.success * 100, row.final_rot_err_deg, row.final_trans_err_cm, row.moved_cm);
+  for (const MovingRow& row : r.rows)
+    if (!row.probe_rot_err_deg.empty())
+      std::printf("probe %-10s %-11s %4zu fits from the truth: %.2f deg (p90 %.2f), %.3f cm\n", row.part.c_str(),
+                  row.method.c_str(), row.probe_rot_err_deg.size(), row.probe_rot_mean_deg, row.probe_rot_p90_deg,
+                  row.probe_trans_mean_cm);
 }
 #endif
 

@@ -117,6 +117,21 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
           control.record(
               {"moving", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T0, truth.eta, &tr});
         }
+        if (o.probe_every > 0 && f % o.probe_every == 0) {
+          const Pose T_true = world.partTruth(0).T_cell_part;
+          for (std::size_t m = 0; m < methods.size(); ++m) {
+            tracker::TrackerConfig c = evalTrackerConfig(methods[m], cell);
+            c.filter.data_inflation = 0;  // the scan alone
+            tracker::PartTracker probe(part.name, part.mesh, T_true, part.xi, c);
+            tracker::TrackResult fit;
+            for (int k = 0; k < o.probe_fits; ++k) fit = probe.track(scan);
+            if (fit.status != tracker::TrackStatus::kTracking && fit.status != tracker::TrackStatus::kDegraded)
+              continue;  // no fit: the pose kept at the truth says nothing
+            const PoseError e = poseError(fit.T_cell_part, T_true);
+            rows[m].probe_rot_err_deg.push_back(e.rot_deg);
+            rows[m].probe_trans_err_cm.push_back(e.trans_cm);
+          }
+        }
         done += 1;
         control.tell(done, total,
                      "moving " + part.name + " trial " + std::to_string(trial + 1) + "/" + std::to_string(o.trials));
@@ -154,6 +169,9 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       row.visibility = mean(row.trial_visibility);
       row.moved_cm = mean(row.trial_moved_cm);
       row.turned_deg = mean(row.trial_turned_deg);
+      row.probe_rot_mean_deg = mean(row.probe_rot_err_deg);
+      row.probe_rot_p90_deg = percentile(row.probe_rot_err_deg, 0.9);
+      row.probe_trans_mean_cm = mean(row.probe_trans_err_cm);
       result.rows.push_back(row);
     }
     if (result.interrupted) return result;
@@ -174,6 +192,8 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   opt.set("max_duration_s", o.max_duration);
   opt.set("dig_path", o.dig_path);
   opt.set("self_filter", o.self_filter);
+  opt.set("probe_every", o.probe_every);
+  opt.set("probe_fits", o.probe_fits);
   opt.set("contact_band", o.contact_band);
   opt.set("success_rot_deg", o.success_rot_deg);
   opt.set("success_trans_m", o.success_trans);
@@ -199,6 +219,12 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
     j.set("trial_turned_deg", Json::arrayOf(r.trial_turned_deg));
     j.set("trial_tilt_deg", Json::arrayOf(r.trial_tilt_deg));
     j.set("trial_outcome", Json::arrayOf(r.trial_outcome));
+    if (o.probe_every > 0) {
+      j.set("probes", static_cast<double>(r.probe_rot_err_deg.size()));
+      j.set("probe_rot_err_deg_mean", r.probe_rot_mean_deg);
+      j.set("probe_rot_err_deg_p90", r.probe_rot_p90_deg);
+      j.set("probe_trans_err_cm_mean", r.probe_trans_mean_cm);
+    }
     rows.push(std::move(j));
   }
   doc.set("rows", std::move(rows));

@@ -138,8 +138,13 @@ struct MovingOptions {
   double dig_step = 0.01;             ///< m between the poses the path is dug at
   double max_duration = 30;           ///< s of simulated time at most per trial
   bool self_filter = false;           ///< the camera proxy removes the pushing nozzle's points, as in the cell
-  double success_rot_deg = 15;        ///< Table II: final error within 15 deg...
-  double success_trans = 0.015;       ///< ... and 15 mm
+  /// How well the scan alone pins the part: every this many frames (0: never), a new tracker of
+  /// each method, without the filter, starts at the true pose and fits that frame's scan
+  /// probe_fits times; its distance from the truth then is a probe.
+  int probe_every = 0;
+  int probe_fits = 4;
+  double success_rot_deg = 15;   ///< Table II: final error within 15 deg...
+  double success_trans = 0.015;  ///< ... and 15 mm
   double bottom_z = 0.03;
   std::uint32_t seed = 1;
 };
@@ -157,6 +162,8 @@ struct MovingRow {
       trial_turned_deg;
   std::vector<double> trial_tilt_deg;      ///< angle between the part's initial and final vertical axes
   std::vector<std::string> trial_outcome;  ///< how each push ended (sim::PushOutcome)
+  std::vector<double> probe_rot_err_deg, probe_trans_err_cm;  ///< MovingOptions::probe_every (fits that ran)
+  double probe_rot_mean_deg = 0, probe_rot_p90_deg = 0, probe_trans_mean_cm = 0;
 };
 
 struct MovingResult {
