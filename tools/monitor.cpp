@@ -25,6 +25,7 @@
 #include "depowder/progress_t.hpp"
 #include "depowder/robot_state_t.hpp"
 #include "depowder/sim_truth_t.hpp"
+#include "depowder/stats.hpp"
 
 using namespace depowder;
 
@@ -38,12 +39,6 @@ struct PartView {
   std::int64_t poses = 0;
   std::int64_t done_since = 0;  // utime the part was first seen DONE
 };
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))];
-}
 
 const char* phaseName(int phase) {
   switch (phase) {
@@ -252,9 +247,10 @@ int main(int argc, char** argv) {
         "  latency depth->PART_POSE p50 %.1f p99 %.1f ms; depth->NOZZLE_PLAN p50 %.1f p99 %.1f ms (%zu plans)\n",
         percentile(pose_latency_ms, 0.5), percentile(pose_latency_ms, 0.99), percentile(plan_latency_ms, 0.5),
         percentile(plan_latency_ms, 0.99), plan_latency_ms.size());
-    std::printf("  of which depth->PROGRESS p50 %.1f p99 %.1f ms; new plans (not refreshes) p50 %.1f p99 %.1f ms (%zu)\n",
-                percentile(progress_latency_ms, 0.5), percentile(progress_latency_ms, 0.99),
-                percentile(new_plan_latency_ms, 0.5), percentile(new_plan_latency_ms, 0.99), new_plan_latency_ms.size());
+    std::printf(
+        "  of which depth->PROGRESS p50 %.1f p99 %.1f ms; new plans (not refreshes) p50 %.1f p99 %.1f ms (%zu)\n",
+        percentile(progress_latency_ms, 0.5), percentile(progress_latency_ms, 0.99),
+        percentile(new_plan_latency_ms, 0.5), percentile(new_plan_latency_ms, 0.99), new_plan_latency_ms.size());
     // The machine's load (other jobs share the cores): latency figures mean little without it.
     double load[3];
     std::ifstream loadavg("/proc/loadavg");

@@ -16,6 +16,7 @@
 #include "depowder/node/convert.hpp"
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/sim_truth_t.hpp"
+#include "depowder/stats.hpp"
 #include "depowder/waypoint_t.hpp"
 #include "tracker_node.hpp"
 
@@ -41,12 +42,6 @@ int usage(const std::string& error = "") {
          "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
          "  no truth.\n";
   return error.empty() ? 0 : 2;
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * (v.size() - 1) + 0.5))];
 }
 
 }  // namespace

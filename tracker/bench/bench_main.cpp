@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "depowder/parts.hpp"
+#include "depowder/stats.hpp"
 #include "depowder/tracker/part_tracker.hpp"
 #include "pcl_baseline.hpp"
 #include "scene.hpp"
@@ -181,11 +182,6 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))];
 }
 double mean(const std::vector<double>& v) {
   double s = 0;

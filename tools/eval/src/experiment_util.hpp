@@ -23,7 +23,6 @@ Pose perturbed(const Pose& T, double max_trans, double max_rot, std::mt19937& rn
 void advanceFrame(sim::World& world, const EvalCell& cell, const std::function<void(double t)>& before_step);
 
 double mean(const std::vector<double>& v);
-double percentile(std::vector<double> v, double q);  ///< nearest rank, q in [0, 1]; NaN if empty
-std::string percent(double fraction);                ///< "40%"
+std::string percent(double fraction);  ///< "40%"
 
 }  // namespace depowder::eval

@@ -9,6 +9,7 @@
 #include "depowder/eval/experiment.hpp"
 #include "depowder/sim/physics.hpp"
 #include "depowder/sim/push.hpp"
+#include "depowder/stats.hpp"
 #include "depowder/tracker/part_tracker.hpp"
 #include "experiment_util.hpp"
 

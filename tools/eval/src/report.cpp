@@ -17,6 +17,9 @@ namespace {
 const std::vector<std::string> kMethods{"cu", "continuous", "vanilla"};
 const std::vector<std::string> kPaperParts{"cube", "cup", "propeller", "owl", "pipe", "overall"};
 
+// Whether a run had the camera proxy remove the nozzle's points (--self-filter; older runs: no).
+bool selfFiltered(const Json& options) { return options.has("self_filter") && options.at("self_filter").boolean(); }
+
 std::string methodTitle(const std::string& m) {
   if (m == "cu") return "CU-ICP";
   if (m == "continuous") return "Continuous ICP";
@@ -164,9 +167,8 @@ std::string staticSection(const Json& doc) {
                    " cm off its bounding box, tip " + fmt(opt.at("nozzle_above_top_m").number() * 100, 0) +
                    " cm above its top, leaning " + fmt(opt.at("nozzle_tilt_deg").number(), 0) + " deg, one lap per " +
                    fmt(opt.at("nozzle_period_s").number(), 1) + " s" +
-                   (opt.has("self_filter") && opt.at("self_filter").boolean()
-                        ? " (occlusion only: the camera proxy's self-filter removes its points); "
-                        : " (occlusion and interference, paper Fig. 7); ")
+                   (selfFiltered(opt) ? " (occlusion only: the camera proxy's self-filter removes its points); "
+                                      : " (occlusion and interference, paper Fig. 7); ")
              : "no nozzle; ")
      << "the tracker starts from the true pose with a seeded error of up to "
      << fmt(opt.at("init_trans_max_m").number() * 1000, 0) << " mm and " << fmt(opt.at("init_rot_max_deg").number(), 0)
@@ -351,7 +353,7 @@ std::string movingSection(const Json& doc, const std::string& note) {
      << " cm/s until the part reaches the box wall (sim/push.hpp, rigid-body physics). Success: final error within "
      << fmt(opt.at("success_rot_deg").number(), 0) << " deg and " << fmt(opt.at("success_trans_m").number() * 1000, 0)
      << " mm. Overall: the mean of the parts."
-     << (opt.has("self_filter") && opt.at("self_filter").boolean()
+     << (selfFiltered(opt)
              ? " The camera proxy's self-filter removes the nozzle's points, as in the cell."
              : " The pushing nozzle stays in the scan (the cell's camera proxy removes it: --self-filter).")
      << "\n\n";
