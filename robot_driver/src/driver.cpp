@@ -74,8 +74,12 @@ PlanResult Driver::submitPlan(const Plan& plan) {
     return res;
   };
   if (estop_latched_) return refuse(PlanStatus::Empty, "ESTOP is active (reset it first)");
-  const SafetyVerdict fresh = checkNewPlan(cfg_.safety, wall_(), plan.utime, hb_age);
-  if (fresh.stop != StopReason::None) return refuse(PlanStatus::Empty, fresh.reason);
+  // A plan with waypoints must be fresh and its planner alive. An empty one is a controlled stop
+  // (the planner's hold, sent before it has a frame to plan from): taken whatever its age.
+  if (!plan.waypoints.empty()) {
+    const SafetyVerdict fresh = checkNewPlan(cfg_.safety, wall_(), plan.utime, hb_age);
+    if (fresh.stop != StopReason::None) return refuse(PlanStatus::Empty, fresh.reason);
+  }
 
   PreparedPlan pp = preparePlan(cfg_.arm, cfg_.trajectory, cfg_.safety.workspace, plan, q_start);
   if (!pp.usable() && pp.status != PlanStatus::Empty)

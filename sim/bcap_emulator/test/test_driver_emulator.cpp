@@ -218,6 +218,35 @@ TEST(DriverEmulator, StalePlanBringsAControlledStop) {
   EXPECT_TRUE(rig.waitMode(DriverMode::Idle, 1.0));
 }
 
+// The planner's hold (no waypoints; before its first frame it has no source time) is a
+// controlled stop: taken whatever its age, where a plan with waypoints would be refused.
+TEST(DriverEmulator, AnEmptyPlanStopsWhateverItsAge) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.15, 0.1, 0.1}}, 0.05)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  ASSERT_TRUE(rig.waitFor([&] { return rig.emu().tool().vacuum; }, 1.0));
+  Plan hold;
+  hold.id = 2;
+  hold.utime = 0;
+  const PlanResult r = rig.driver().submitPlan(hold);
+  EXPECT_TRUE(r.accepted) << r.reason;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 2.0)) << rig.driver().status().reason;
+  // At rest short of the goal, the tool off, nothing refused.
+  const Joints q1 = rig.emu().joints().q;
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(rig.emu().joints().q, q1);
+  EXPECT_FALSE(rig.emu().tool().vacuum);
+  EXPECT_FALSE(rig.atNozzle({0.15, 0.1, 0.1}, 0.05));
+  EXPECT_EQ(rig.driver().status().stats.plans_refused, 0);
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  // The same plan with a waypoint is refused: it has no source time.
+  Plan stale = linePlan(3, {{0.0, 0.0, 0.25}}, 0.2);
+  stale.utime = 0;
+  EXPECT_FALSE(rig.driver().submitPlan(stale).accepted);
+  EXPECT_EQ(rig.driver().status().stats.plans_refused, 1);
+}
+
 TEST(DriverEmulator, LostPlannerHeartbeatStops) {
   Rig rig;
   ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
