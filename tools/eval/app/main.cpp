@@ -293,6 +293,16 @@ void printMoving(const MovingResult& r) {
   for (const MovingRow& row : r.rows)
     std::printf("%-10s %-11s %4.0f%% %7.0f%% %12.2f %12.3f %9.1f\n", row.part.c_str(), row.method.c_str(),
                 row.visibility * 100, row.success * 100, row.final_rot_err_deg, row.final_trans_err_cm, row.moved_cm);
+  // Each failed push, numbered as --trace numbers its trials: how the push moved the part tells
+  // why (a large turn or a tip), and the trace of that trial shows when the estimate left it.
+  for (const MovingRow& row : r.rows)
+    for (std::size_t i = 0; i < row.trial_success.size(); ++i)
+      if (!row.trial_success[i])
+        std::printf(
+            "failed %s %s trial %zu: moved %.1f cm, turned %.0f deg, tipped %.0f deg (%s); final %.1f deg / %.2f cm\n",
+            row.part.c_str(), row.method.c_str(), i, row.trial_moved_cm[i], row.trial_turned_deg[i],
+            row.trial_tilt_deg[i], row.trial_outcome[i].c_str(), row.trial_final_rot_err_deg[i],
+            row.trial_final_trans_err_cm[i]);
   for (const MovingRow& row : r.rows)
     if (!row.probe_rot_err_deg.empty())
       std::printf("probe %-10s %-11s %4zu fits from the truth: %.2f deg (p90 %.2f), %.3f cm\n", row.part.c_str(),
