@@ -24,6 +24,7 @@
 #include "depowder/planner/cell_planner.hpp"
 #include "depowder/planner/check.hpp"
 #include "depowder/planner/plan.hpp"
+#include "depowder/stats.hpp"
 #include "planner_node.hpp"
 
 using namespace depowder;
@@ -32,14 +33,6 @@ using namespace depowder::planner;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const double pos = q * (v.size() - 1);
-  const std::size_t i = static_cast<std::size_t>(pos);
-  return i + 1 < v.size() ? v[i] + (pos - i) * (v[i + 1] - v[i]) : v.back();
-}
 
 /// A pose for `mesh` resting on the floor (roll, then yaw), its footprint centred at (x, y).
 Pose placed(const Mesh& mesh, double x, double y, double roll, double yaw) {
@@ -224,14 +217,16 @@ int main(int argc, char** argv) {
       totals["3 air blast"].add(p3, checkWaypoints(p3.waypoints, {{s.part, s.mesh, moved}}, box, *arm, config.nozzle));
       if (!p3.hasWaypoints()) ++totals["3 air blast"].failed;
     }
-    std::printf("   %-10s %6zu %9.2f %9.2f %9.2f %9.2f %8.0f\n", name.c_str(), ms.size(), percentile(ms, 0.5),
-                percentile(ms, 0.9), percentile(ms, 1.0), percentile(path_ms, 0.5), percentile(wps, 0.5));
+    std::printf("   %-10s %6zu %9.2f %9.2f %9.2f %9.2f %8.0f\n", name.c_str(), ms.size(),
+                interpolatedPercentile(ms, 0.5), interpolatedPercentile(ms, 0.9), interpolatedPercentile(ms, 1.0),
+                interpolatedPercentile(path_ms, 0.5), interpolatedPercentile(wps, 0.5));
   }
-  const double replan_p50 = percentile(replan_ms_all, 0.5);
+  const double replan_p50 = interpolatedPercentile(replan_ms_all, 0.5);
   std::printf("   all        %6zu %9.2f %9.2f %9.2f   goal: median < 20 ms -> %s\n", replan_ms_all.size(), replan_p50,
-              percentile(replan_ms_all, 0.9), percentile(replan_ms_all, 1.0), replan_p50 < 20 ? "MET" : "NOT MET");
+              interpolatedPercentile(replan_ms_all, 0.9), interpolatedPercentile(replan_ms_all, 1.0),
+              replan_p50 < 20 ? "MET" : "NOT MET");
   std::printf("   with the transitions joining pieces: p50 %.2f ms, p90 %.2f ms   (section %.1f s with checks)\n",
-              percentile(total_ms_all, 0.5), percentile(total_ms_all, 0.9), lap());
+              interpolatedPercentile(total_ms_all, 0.5), interpolatedPercentile(total_ms_all, 0.9), lap());
 
   // ---------------------------------------------------------------------------------------
   // 2. OMPL transitions between two parts' loops (lift out of the powder, RRTConnect +
@@ -275,9 +270,9 @@ int main(int argc, char** argv) {
     transfer_totals.add(pb, checkWaypoints(pb.waypoints, {{sa.part, sa.mesh, sa.T_true}, {sb.part, sb.mesh, sb.T_true}},
                                            box, *arm, config.nozzle));
   }
-  const double t_p50 = percentile(t_ms, 0.5);
+  const double t_p50 = interpolatedPercentile(t_ms, 0.5);
   std::printf("   %zu transitions: p50 %.1f ms, p90 %.1f ms, max %.1f ms; statuses:", t_ms.size(), t_p50,
-              percentile(t_ms, 0.9), percentile(t_ms, 1.0));
+              interpolatedPercentile(t_ms, 0.9), interpolatedPercentile(t_ms, 1.0));
   for (const auto& [s, n] : statuses) std::printf(" %s %d", s.c_str(), n);
   std::printf("\n   goal: median < 200 ms -> %s   (section %.1f s with checks)\n", t_p50 < 200 ? "MET" : "NOT MET",
               lap());

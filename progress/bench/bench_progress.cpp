@@ -18,20 +18,13 @@
 #include "depowder/parts.hpp"
 #include "depowder/progress/phase.hpp"
 #include "depowder/progress/progress.hpp"
+#include "depowder/stats.hpp"
 #include "synthetic_scene.hpp"
 
 using namespace depowder;
 using namespace depowder::progress;
 
 namespace {
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const double pos = q * (v.size() - 1);
-  const std::size_t i = static_cast<std::size_t>(pos);
-  return i + 1 < v.size() ? v[i] + (pos - i) * (v[i + 1] - v[i]) : v.back();
-}
 
 struct Case {
   std::string name, part;
@@ -148,9 +141,11 @@ int main(int argc, char** argv) {
     }
     std::printf(
         "%-13s %6d | %6.2f %6.2f %6.2f | %6.2f %6.2f %6.2f | %6.2fcm %6.2fcm %6.2fcm | %7.3f %7.3f | %6.0f %d\n",
-        c.name.c_str(), frames, percentile(err, 0.5), percentile(err, 0.95), percentile(err, 1.0),
-        percentile(err_noisy, 0.5), percentile(err_noisy, 0.95), percentile(err_noisy, 1.0), percentile(cz, 0.5),
-        percentile(cz, 0.95), percentile(cz, 1.0), percentile(ms, 0.5), percentile(ms, 0.95), percentile(points, 0.5),
+        c.name.c_str(), frames, interpolatedPercentile(err, 0.5), interpolatedPercentile(err, 0.95),
+        interpolatedPercentile(err, 1.0), interpolatedPercentile(err_noisy, 0.5),
+        interpolatedPercentile(err_noisy, 0.95), interpolatedPercentile(err_noisy, 1.0),
+        interpolatedPercentile(cz, 0.5), interpolatedPercentile(cz, 0.95), interpolatedPercentile(cz, 1.0),
+        interpolatedPercentile(ms, 0.5), interpolatedPercentile(ms, 0.95), interpolatedPercentile(points, 0.5),
         no_contour);
     all_err.insert(all_err.end(), err.begin(), err.end());
     all_err_noisy.insert(all_err_noisy.end(), err_noisy.begin(), err_noisy.end());
@@ -158,10 +153,12 @@ int main(int argc, char** argv) {
     all_ms.insert(all_ms.end(), ms.begin(), ms.end());
   }
   std::printf("%-13s %6zu | %6.2f %6.2f %6.2f | %6.2f %6.2f %6.2f | %6.2fcm %6.2fcm %6.2fcm | %7.3f %7.3f |\n", "ALL",
-              all_ms.size(), percentile(all_err, 0.5), percentile(all_err, 0.95), percentile(all_err, 1.0),
-              percentile(all_err_noisy, 0.5), percentile(all_err_noisy, 0.95), percentile(all_err_noisy, 1.0),
-              percentile(all_cz, 0.5), percentile(all_cz, 0.95), percentile(all_cz, 1.0), percentile(all_ms, 0.5),
-              percentile(all_ms, 0.95));
+              all_ms.size(), interpolatedPercentile(all_err, 0.5), interpolatedPercentile(all_err, 0.95),
+              interpolatedPercentile(all_err, 1.0), interpolatedPercentile(all_err_noisy, 0.5),
+              interpolatedPercentile(all_err_noisy, 0.95), interpolatedPercentile(all_err_noisy, 1.0),
+              interpolatedPercentile(all_cz, 0.5), interpolatedPercentile(all_cz, 0.95),
+              interpolatedPercentile(all_cz, 1.0), interpolatedPercentile(all_ms, 0.5),
+              interpolatedPercentile(all_ms, 0.95));
   std::printf("   goal: eta med <= 5, p95 <= 10 pp; contour |z - h| <= 1 cm; < 1 ms per part per frame\n");
 
   // ---------------------------------------------------------------------------------------
@@ -214,8 +211,9 @@ int main(int argc, char** argv) {
       bad += e > 10;
       if (i >= 120 && settle < 0 && e <= 5) settle = static_cast<int>(i) - 120 + 1;  // first frame back within 5 pp
     }
-    std::printf("%-18s %6.2f %6.2f %6.2f %10d %14s\n", toString(mode), percentile(err, 0.5), percentile(err, 0.95),
-                percentile(err, 1.0), bad, settle < 0 ? "never" : std::to_string(settle).c_str());
+    std::printf("%-18s %6.2f %6.2f %6.2f %10d %14s\n", toString(mode), interpolatedPercentile(err, 0.5),
+                interpolatedPercentile(err, 0.95), interpolatedPercentile(err, 1.0), bad,
+                settle < 0 ? "never" : std::to_string(settle).c_str());
   }
   std::printf("   topple_frames: frames from the topple until the error is first within 5 pp\n");
   return 0;

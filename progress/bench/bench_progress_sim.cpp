@@ -15,20 +15,11 @@
 #include "depowder/point_grid.hpp"
 #include "depowder/progress/progress.hpp"
 #include "depowder/sim/world.hpp"
+#include "depowder/stats.hpp"
 
 using namespace depowder;
 
-namespace {
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const double pos = q * (v.size() - 1);
-  const std::size_t i = static_cast<std::size_t>(pos);
-  return i + 1 < v.size() ? v[i] + (pos - i) * (v[i + 1] - v[i]) : v.back();
-}
-
-}  // namespace
+namespace {}  // namespace
 
 int main(int argc, char** argv) {
   std::string cell_path = node::defaultCellPath();
@@ -123,18 +114,20 @@ int main(int argc, char** argv) {
         }
       }
       std::printf("%-10s %-7s %6d | %6.2f %6.2f %6.2f | %6.2fcm %6.2fcm %6.2fcm | %7.3f %7.3f | %d\n", name.c_str(),
-                  with_nozzle ? "beside" : "none", frames, percentile(err, 0.5), percentile(err, 0.95),
-                  percentile(err, 1.0), percentile(cz, 0.5), percentile(cz, 0.95), percentile(cz, 1.0),
-                  percentile(ms, 0.5), percentile(ms, 0.95), no_contour);
+                  with_nozzle ? "beside" : "none", frames, interpolatedPercentile(err, 0.5),
+                  interpolatedPercentile(err, 0.95), interpolatedPercentile(err, 1.0), interpolatedPercentile(cz, 0.5),
+                  interpolatedPercentile(cz, 0.95), interpolatedPercentile(cz, 1.0), interpolatedPercentile(ms, 0.5),
+                  interpolatedPercentile(ms, 0.95), no_contour);
       all_err.insert(all_err.end(), err.begin(), err.end());
       all_cz.insert(all_cz.end(), cz.begin(), cz.end());
       all_ms.insert(all_ms.end(), ms.begin(), ms.end());
     }
   }
   std::printf("%-10s %-7s %6zu | %6.2f %6.2f %6.2f | %6.2fcm %6.2fcm %6.2fcm | %7.3f %7.3f |\n", "ALL", "",
-              all_ms.size(), percentile(all_err, 0.5), percentile(all_err, 0.95), percentile(all_err, 1.0),
-              percentile(all_cz, 0.5), percentile(all_cz, 0.95), percentile(all_cz, 1.0), percentile(all_ms, 0.5),
-              percentile(all_ms, 0.95));
+              all_ms.size(), interpolatedPercentile(all_err, 0.5), interpolatedPercentile(all_err, 0.95),
+              interpolatedPercentile(all_err, 1.0), interpolatedPercentile(all_cz, 0.5),
+              interpolatedPercentile(all_cz, 0.95), interpolatedPercentile(all_cz, 1.0),
+              interpolatedPercentile(all_ms, 0.5), interpolatedPercentile(all_ms, 0.95));
   std::printf(
       "  |eta error| in percentage points (goal: median <= 5, p95 <= 10); cz: contour vertex height minus the\n"
       "  simulator's surface there (goal <= 1 cm); ms: wall time per part per frame (best of 3; goal < 1 ms)\n");
