@@ -299,20 +299,31 @@ double loopHeight(const PartShape& part, const Pose& T_cell_part, double powder_
   return std::max(powder_height - config.layer_depth, loopFloor(part, T_cell_part, config));
 }
 
-LoopResult contourLoop(const PartShape& part, const Pose& T_cell_part, const Cloud& contour, double powder_height,
-                       const Point& nozzle_now, const PlannerConfig& config) {
-  LoopResult r;
-  r.source = LoopSource::kContour;
+namespace {
+
+// A loop's inputs every source shares: a rigid pose and a finite powder height. False, with the
+// status and reason in r, otherwise.
+bool validLoopInput(const PartShape& part, const Pose& T_cell_part, double powder_height, LoopResult& r) {
   if (!isValidPose(T_cell_part, 1e-6)) {
     r.status = PathStatus::kInvalidPose;
     r.reason = "the pose of '" + part.name() + "' is not a valid rigid transform";
-    return r;
+    return false;
   }
   if (!std::isfinite(powder_height)) {
     r.status = PathStatus::kInvalidHeight;
     r.reason = "the powder height is not finite";
-    return r;
+    return false;
   }
+  return true;
+}
+
+}  // namespace
+
+LoopResult contourLoop(const PartShape& part, const Pose& T_cell_part, const Cloud& contour, double powder_height,
+                       const Point& nozzle_now, const PlannerConfig& config) {
+  LoopResult r;
+  r.source = LoopSource::kContour;
+  if (!validLoopInput(part, T_cell_part, powder_height, r)) return r;
   if (contour.empty()) {
     r.status = PathStatus::kEmptyContour;
     r.reason = "the contour of '" + part.name() + "' is empty";
@@ -352,16 +363,7 @@ LoopResult footprintLoop(const PartShape& part, const Pose& T_cell_part, double 
                          const PlannerConfig& config) {
   LoopResult r;
   r.source = LoopSource::kFootprint;
-  if (!isValidPose(T_cell_part, 1e-6)) {
-    r.status = PathStatus::kInvalidPose;
-    r.reason = "the pose of '" + part.name() + "' is not a valid rigid transform";
-    return r;
-  }
-  if (!std::isfinite(powder_height)) {
-    r.status = PathStatus::kInvalidHeight;
-    r.reason = "the powder height is not finite";
-    return r;
-  }
+  if (!validLoopInput(part, T_cell_part, powder_height, r)) return r;
   const HeightRange hr = partHeights(part, T_cell_part);
   const double height = loopHeight(part, T_cell_part, powder_height, config.vacuum);
   const double eval_z = evalHeight(hr, height);

@@ -272,7 +272,9 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
   s.finish();
 }
 
-CameraModel toCamera(const node::CameraConfig& c) {
+}  // namespace
+
+CameraModel cameraModelOf(const node::CameraConfig& c) {
   CameraModel m = CameraModel::fromFov(c.name, c.width, c.height, c.fov_h_deg, c.fov_v_deg, c.T_cell_camera);
   // The same formulas as node::CameraConfig, so DEPTH_* carries the intrinsics the cell expects.
   m.fx = c.fx();
@@ -290,8 +292,6 @@ CameraModel toCamera(const node::CameraConfig& c) {
   return m;
 }
 
-}  // namespace
-
 SimSetup loadSimSetup(const std::string& cell_path, const std::string& scenario_path) {
   std::string cell_file = cell_path;
   std::unique_ptr<YamlReader> overlay;
@@ -308,7 +308,7 @@ SimSetup loadSimSetup(const std::string& cell_path, const std::string& scenario_
   out.lcm = cell.lcm;
   out.box.size = cell.box.size;
   out.box.wall = cell.box.wall;
-  for (const auto& c : cell.cameras) out.cameras.push_back(toCamera(c));
+  for (const auto& c : cell.cameras) out.cameras.push_back(cameraModelOf(c));
   for (const auto& p : cell.parts)
     out.parts.push_back({p.name, loadMesh(p.mesh, p.mesh_scale), p.T_cell_part_init, p.density});
   if (overlay) {

@@ -59,6 +59,9 @@ struct SimSetup {
   std::vector<Fault> faults;
 };
 
+/// The simulated camera of a cell camera: the same intrinsics, range, rate and noise.
+CameraModel cameraModelOf(const node::CameraConfig& c);
+
 /// Reads `cell_path`; `scenario_path` (optional) is either a full cell file used instead, or a file
 /// holding only a `sim:` section that replaces the cell's. Loads the part meshes. Throws
 /// node::ConfigError (file, key, range) or MeshError (file).

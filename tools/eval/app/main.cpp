@@ -18,6 +18,7 @@
 #include "depowder/node/cell.hpp"
 #include "depowder/node/shutdown.hpp"
 #include "depowder/parts.hpp"
+#include "setup.hpp"
 #include "terminal.hpp"
 
 using namespace depowder;
@@ -205,17 +206,7 @@ EvalCell loadEvalCell(const std::string& path) {
   out.box.size = cell.box.size;
   out.box.wall = cell.box.wall;
   for (const node::CameraConfig& c : cell.cameras) {
-    sim::CameraModel m =
-        sim::CameraModel::fromFov(c.name, c.width, c.height, c.fov_h_deg, c.fov_v_deg, c.T_cell_camera);
-    m.min_range = c.min_range;
-    m.max_range = c.max_range;
-    m.rate_hz = c.rate_hz;
-    m.noise.sigma_base = c.noise.sigma_base;
-    m.noise.sigma_per_m = c.noise.sigma_per_m;
-    m.noise.flying_pixel_prob = c.noise.flying_pixel_prob;
-    m.noise.grazing_dropout_deg = c.noise.grazing_dropout_deg;
-    m.noise.dropout_prob = c.noise.dropout_prob;
-    out.cameras.push_back(m);
+    out.cameras.push_back(sim::cameraModelOf(c));
   }
   if (out.cameras.empty()) throw std::invalid_argument(cell.file + ": no cameras");
   out.tracker = baseTrackerConfig();
