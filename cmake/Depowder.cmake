@@ -23,23 +23,35 @@ function(depowder_executable name)
   depowder_warnings(${name})
 endfunction()
 
-# depowder_test(name SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s]): one GoogleTest executable.
+# depowder_test(name SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s] [NETNS test] [NEEDS targets ...]):
+# one GoogleTest executable. With NETNS it runs as test `test` inside a private network namespace
+# (test/netns-run, DESIGN.md: udpm multicast never reaches a real interface), labelled netns;
+# NEEDS: the executables it starts, built first.
 function(depowder_test name)
   if(NOT BUILD_TESTING)
     return()
   endif()
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "TIMEOUT;NETNS" "SOURCES;DEPS;LABELS;NEEDS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/test/include)  # test helpers
   target_compile_definitions(${name} PRIVATE
     DEPOWDER_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     DEPOWDER_SHARED_DATA="${DEPOWDER_SHARED_DATA}"
     DEPOWDER_BIN_DIR="${CMAKE_RUNTIME_OUTPUT_DIRECTORY}")
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   depowder_warnings(${name})
-  add_test(NAME ${name} COMMAND ${name})
+  if(ARG_NEEDS)
+    add_dependencies(${name} ${ARG_NEEDS})
+  endif()
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
-  set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
+  if(ARG_NETNS)
+    add_test(NAME ${ARG_NETNS} COMMAND ${PROJECT_SOURCE_DIR}/test/netns-run $<TARGET_FILE:${name}>)
+    set_tests_properties(${ARG_NETNS} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "netns;${ARG_LABELS}")
+  else()
+    add_test(NAME ${name} COMMAND ${name})
+    set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
+  endif()
 endfunction()

@@ -193,8 +193,11 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   for (const Point& p : filtered.points) ASSERT_LE(depthInside(p), cfg.voxel_leaf) << p.transpose();
   // Away from the cylinder (by more than a voxel) the cloud is untouched.
   const PointGrid kept(filtered.points, cfg.voxel_leaf);
-  for (const Point& p : all.points)
-    if (depthInside(p) < -cfg.voxel_leaf) ASSERT_TRUE(kept.nearest(p, 1e-9).found()) << p.transpose();
+  for (const Point& p : all.points) {
+    if (depthInside(p) < -cfg.voxel_leaf) {
+      ASSERT_TRUE(kept.nearest(p, 1e-9).found()) << p.transpose();
+    }
+  }
   EXPECT_EQ(stale.on_nozzle, 0u);
   EXPECT_EQ(stale.points.size(), all.points.size());
 }

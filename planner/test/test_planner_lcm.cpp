@@ -2,15 +2,12 @@
 // (test/netns-run). Poses and progress in, a NOZZLE_PLAN out with the frame's utime and IK
 // solutions; bad messages are counted and change nothing; SIGTERM ends it cleanly.
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
 #include <functional>
+#include <sstream>
 
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
@@ -18,6 +15,7 @@
 #include "depowder/nozzle_plan_t.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/parts.hpp"
+#include "depowder/process_under_test.hpp"
 #include "depowder/progress_t.hpp"
 #include "fixtures.hpp"
 
@@ -29,35 +27,15 @@ const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 class PlannerProcess : public ::testing::Test {
  protected:
   void SetUp() override {
-    char dir[] = "/tmp/depowder_planner_lcm_XXXXXX";
-    ASSERT_NE(mkdtemp(dir), nullptr);
-    dir_ = dir;
-    const std::string cell = dir_ + "/cell.yaml";
-    std::ofstream(cell) << "parts:\n  - name: cube\n    mesh: " << DEPOWDER_SOURCE_DIR
-                        << "/config/parts/cube.stl\n    initial_pose: {xyz: [0, 0, 0.03], rpy_deg: [0, 0, 0]}\n"
-                        << "robot:\n  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
-                        << "  tool_offset: {xyz: [0, 0, 0.25], rpy_deg: [0, 0, 0]}\n"
-                        << "planner: {heartbeat_period: 0.2}\n";
-    prefix_ = "PLANNER_TEST_" + std::to_string(getpid()) + "_";
-    child_ = fork();
-    if (child_ == 0) {
-      const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-planner";
-      execl(exe.c_str(), "depowder-planner", "--cell", cell.c_str(), "--url", kUrl, "--prefix", prefix_.c_str(),
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    ASSERT_GT(child_, 0);
+    std::ostringstream cell;
+    cell << "parts:\n  - name: cube\n    mesh: " << DEPOWDER_SOURCE_DIR
+         << "/config/parts/cube.stl\n    initial_pose: {xyz: [0, 0, 0.03], rpy_deg: [0, 0, 0]}\n"
+         << "robot:\n  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
+         << "  tool_offset: {xyz: [0, 0, 0.25], rpy_deg: [0, 0, 0]}\n"
+         << "planner: {heartbeat_period: 0.2}\n";
+    process_.start({"--cell", process_.write("cell.yaml", cell.str()), "--url", kUrl, "--prefix", process_.prefix()});
   }
-  void TearDown() override {
-    if (child_ > 0) {
-      kill(child_, SIGKILL);
-      waitpid(child_, nullptr, 0);
-    }
-    std::system(("rm -rf '" + dir_ + "'").c_str());
-  }
-
-  std::string dir_, prefix_;
-  pid_t child_ = -1;
+  testutil::ProcessUnderTest process_{"depowder-planner"};
 };
 
 part_pose_t poseMsg(std::int64_t utime, const Pose& T) {
@@ -91,7 +69,7 @@ progress_t progressMsg(std::int64_t utime, const Pose& T, double powder) {
 }
 
 TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
-  node::Bus bus(kUrl, prefix_);
+  node::Bus bus(kUrl, process_.prefix());
   std::vector<nozzle_plan_t> plans;
   heartbeat_t last{};
   int heartbeats = 0;
@@ -129,12 +107,7 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   EXPECT_EQ(last.state, +heartbeat_t::RUNNING) << last.state_reason;
 
   // 3. SIGTERM: a clean exit.
-  kill(child_, SIGTERM);
-  int status = 0;
-  ASSERT_EQ(waitpid(child_, &status, 0), child_);
-  child_ = -1;
-  EXPECT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(process_.terminate(), 0);
 }
 
 }  // namespace

@@ -2,21 +2,19 @@
 // (test/netns-run), so its multicast never leaves the namespace. Frames in, PROGRESS out with
 // the frame's utime; garbage and invalid poses are counted and the process keeps running.
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
 #include <functional>
 #include <limits>
+#include <sstream>
 
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/part_pose_t.hpp"
+#include "depowder/process_under_test.hpp"
 #include "depowder/progress_t.hpp"
 #include "scenes.hpp"
 
@@ -45,39 +43,17 @@ part_pose_t poseMsg(std::int64_t utime, const Pose& pose) {
 class ProgressProcess : public ::testing::Test {
  protected:
   void SetUp() override {
-    char dir[] = "/tmp/depowder_progress_lcm_XXXXXX";
-    ASSERT_NE(mkdtemp(dir), nullptr);
-    dir_ = dir;
-    const std::string cell = dir_ + "/cell.yaml";
-    std::ofstream(cell) << "parts:\n  - name: cube\n    mesh: " << DEPOWDER_SOURCE_DIR
-                        << "/config/parts/cube.stl\n    xi: 0.01\n"
-                        << "    initial_pose: {xyz: [0, 0, 0.05], rpy_deg: [0, 0, 0]}\n"
-                        << "progress: {pose_wait: 0.1, heartbeat_period: 0.2}\n";
-    prefix_ = "PROGRESS_TEST_" + std::to_string(getpid()) + "_";
-    child_ = fork();
-    if (child_ == 0) {
-      const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-progress";
-      execl(exe.c_str(), "depowder-progress", "--cell", cell.c_str(), "--url", kUrl, "--prefix", prefix_.c_str(),
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    ASSERT_GT(child_, 0);
+    std::ostringstream cell;
+    cell << "parts:\n  - name: cube\n    mesh: " << DEPOWDER_SOURCE_DIR << "/config/parts/cube.stl\n    xi: 0.01\n"
+         << "    initial_pose: {xyz: [0, 0, 0.05], rpy_deg: [0, 0, 0]}\n"
+         << "progress: {pose_wait: 0.1, heartbeat_period: 0.2}\n";
+    process_.start({"--cell", process_.write("cell.yaml", cell.str()), "--url", kUrl, "--prefix", process_.prefix()});
   }
-  void TearDown() override {
-    if (child_ > 0) {
-      kill(child_, SIGKILL);
-      waitpid(child_, nullptr, 0);
-    }
-    std::system(("rm -rf '" + dir_ + "'").c_str());
-  }
-  /// Spins `bus` until `done()` or `seconds` pass.
-
-  std::string dir_, prefix_;
-  pid_t child_ = -1;
+  testutil::ProcessUnderTest process_{"depowder-progress"};
 };
 
 TEST_F(ProgressProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
-  node::Bus bus(kUrl, prefix_);
+  node::Bus bus(kUrl, process_.prefix());
   std::vector<progress_t> got;
   heartbeat_t last_heartbeat;
   int heartbeats = 0;
@@ -117,12 +93,7 @@ TEST_F(ProgressProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   EXPECT_NE(last_heartbeat.state_reason.find("cube"), std::string::npos) << last_heartbeat.state_reason;
 
   // 4. SIGTERM: a clean exit.
-  kill(child_, SIGTERM);
-  int status = 0;
-  ASSERT_EQ(waitpid(child_, &status, 0), child_);
-  child_ = -1;
-  EXPECT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(process_.terminate(), 0);
 }
 
 }  // namespace

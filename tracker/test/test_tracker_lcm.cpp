@@ -3,9 +3,7 @@
 // the frame's utime; garbage and empty frames are reported and the process keeps running;
 // SIGTERM stops it cleanly; a broken mesh is a start-up error naming the file.
 #include <gtest/gtest.h>
-#include <signal.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -19,6 +17,7 @@
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/part_pose_t.hpp"
+#include "depowder/process_under_test.hpp"
 #include "scene.hpp"
 
 namespace {
@@ -26,7 +25,6 @@ namespace {
 using namespace depowder;
 
 const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
-const std::string kExe = std::string(DEPOWDER_BIN_DIR) + "/depowder-tracker";
 const std::string kCube = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/cube.stl";
 
 std::string cellYaml(const std::string& mesh, const Pose& init) {
@@ -44,32 +42,10 @@ std::string cellYaml(const std::string& mesh, const Pose& init) {
 
 class TrackerProcess : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char dir[] = "/tmp/depowder_tracker_lcm_XXXXXX";
-    ASSERT_NE(mkdtemp(dir), nullptr);
-    dir_ = dir;
-    prefix_ = "TRACKER_TEST_" + std::to_string(getpid()) + "_";
-  }
-  void TearDown() override {
-    if (child_ > 0) {
-      kill(child_, SIGKILL);
-      waitpid(child_, nullptr, 0);
-    }
-    std::system(("rm -rf '" + dir_ + "'").c_str());
-  }
   void start(const std::string& cell) {
-    const std::string path = dir_ + "/cell.yaml";
-    std::ofstream(path) << cell;
-    child_ = fork();
-    if (child_ == 0) {
-      execl(kExe.c_str(), "depowder-tracker", "--config", path.c_str(), "--url", kUrl, "--prefix", prefix_.c_str(),
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    ASSERT_GT(child_, 0);
+    process_.start({"--config", process_.write("cell.yaml", cell), "--url", kUrl, "--prefix", process_.prefix()});
   }
-  std::string dir_, prefix_;
-  pid_t child_ = -1;
+  testutil::ProcessUnderTest process_{"depowder-tracker"};
 };
 
 TEST_F(TrackerProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
@@ -79,7 +55,7 @@ TEST_F(TrackerProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   init.translation().y() += 0.002;  // along y: the cameras see the cube's y faces, not its x faces
   start(cellYaml(kCube, init));
 
-  node::Bus bus(kUrl, prefix_);
+  node::Bus bus(kUrl, process_.prefix());
   std::vector<part_pose_t> got;
   heartbeat_t last_heartbeat;
   int heartbeats = 0;
@@ -127,31 +103,26 @@ TEST_F(TrackerProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   EXPECT_TRUE(has_timing);
 
   // 4. SIGTERM: a clean exit.
-  kill(child_, SIGTERM);
-  int status = 0;
-  ASSERT_EQ(waitpid(child_, &status, 0), child_);
-  child_ = -1;
-  EXPECT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(process_.terminate(), 0);
 }
 
 // A mesh that cannot be loaded is a configuration error: exit code 1, the file named.
 TEST_F(TrackerProcess, BrokenMeshIsAStartUpError) {
-  const std::string broken = dir_ + "/broken.stl";
+  const std::string broken = process_.dir() + "/broken.stl";
   std::ofstream(broken) << "solid broken\nendsolid broken\n";
-  const std::string cell = dir_ + "/cell.yaml";
+  const std::string cell = process_.dir() + "/cell.yaml";
   std::ofstream(cell) << cellYaml(broken, Pose::Identity());
-  const std::string log = dir_ + "/stderr.txt";
-  const int rc = std::system((kExe + " --config " + cell + " --url memq:// 2> " + log).c_str());
+  const std::string log = process_.dir() + "/stderr.txt";
+  const int rc = std::system((process_.exe() + " --config " + cell + " --url memq:// 2> " + log).c_str());
   ASSERT_TRUE(WIFEXITED(rc));
   EXPECT_EQ(WEXITSTATUS(rc), 1);
   std::stringstream err;
   err << std::ifstream(log).rdbuf();
   EXPECT_NE(err.str().find(broken), std::string::npos) << err.str();
 
-  const int help = std::system((kExe + " --help > /dev/null").c_str());
+  const int help = std::system((process_.exe() + " --help > /dev/null").c_str());
   EXPECT_EQ(WEXITSTATUS(help), 0);
-  const int bad = std::system((kExe + " --method gicp 2> /dev/null").c_str());
+  const int bad = std::system((process_.exe() + " --method gicp 2> /dev/null").c_str());
   EXPECT_EQ(WEXITSTATUS(bad), 2);
 }
 
