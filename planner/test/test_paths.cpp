@@ -7,6 +7,7 @@
 
 #include "depowder/parts.hpp"
 #include "depowder/planner/paths.hpp"
+#include "fixtures.hpp"
 
 using namespace depowder;
 using namespace depowder::planner;
@@ -23,23 +24,7 @@ double axisDistance(const Mesh& posed, const Point& tip, double length) {
   return best;
 }
 
-/// A synthetic powder contour: the visible part (above `powder`) projected to xy, its support
-/// in 72 directions plus `gap` (the progress estimator's band sits ~xi + 2.5 mm out), at z = powder.
-Cloud syntheticContour(const Mesh& posed, double powder, double gap) {
-  Eigen::AlignedBox3d b = bounds(posed);
-  const Eigen::Vector2d c = b.center().head<2>();
-  Cloud contour;
-  for (int k = 0; k < 72; ++k) {
-    const double a = 2 * kPi * k / 72;
-    const Eigen::Vector2d u(std::cos(a), std::sin(a));
-    double extent = 0;
-    for (const auto& v : posed.vertices)
-      if (v.z() >= powder - 0.01) extent = std::max(extent, (v.head<2>() - c).dot(u));
-    const Eigen::Vector2d p = c + (extent + gap) * u;
-    contour.emplace_back(p.x(), p.y(), powder);
-  }
-  return contour;
-}
+using test::syntheticContour;
 
 struct Case {
   std::string part;
