@@ -15,8 +15,9 @@
 #include "depowder/node/shutdown.hpp"
 #include "depowder/perception/camera_proxy.hpp"
 #include "depowder/perception/point_file.hpp"
-#include "depth_msg.hpp"
 #include "depowder/robot_state_t.hpp"
+#include "depowder/stats.hpp"
+#include "depth_msg.hpp"
 
 using namespace depowder;
 using namespace depowder::perception;
@@ -62,12 +63,9 @@ class Window {
     samples_.push_back(v);
     if (samples_.size() > 300) samples_.pop_front();
   }
+  /// 0 before the first sample (a heartbeat figure).
   double percentile(double q) const {
-    if (samples_.empty()) return 0;
-    std::vector<double> s(samples_.begin(), samples_.end());
-    const std::size_t k = static_cast<std::size_t>(q * static_cast<double>(s.size() - 1) + 0.5);
-    std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(k), s.end());
-    return s[k];
+    return samples_.empty() ? 0 : depowder::percentile({samples_.begin(), samples_.end()}, q);
   }
 
  private:

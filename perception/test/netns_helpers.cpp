@@ -89,11 +89,4 @@ int ChildProcess::stop(double timeout_s) {
   return wait(timeout_s);
 }
 
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const double rank = std::clamp(q, 0.0, 1.0) * static_cast<double>(values.size() - 1);
-  return values[static_cast<std::size_t>(rank + 0.5)];
-}
-
 }  // namespace depowder::perception::testing

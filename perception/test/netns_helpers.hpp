@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "depowder/stats.hpp"  // percentile, for the tests and the bench
+
 namespace depowder::perception::testing {
 
 /// True when this process sees no network interface but loopback (as inside test/netns-run),
@@ -34,8 +36,5 @@ class ChildProcess {
   pid_t pid_ = -1;
   int status_ = -1;
 };
-
-/// q-quantile (0..1) of the values, by nearest rank; 0 for none.
-double percentile(std::vector<double> values, double q);
 
 }  // namespace depowder::perception::testing

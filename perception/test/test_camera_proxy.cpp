@@ -6,6 +6,7 @@
 
 #include "depowder/perception/camera_proxy.hpp"
 #include "depowder/point_grid.hpp"
+#include "depowder/stats.hpp"
 #include "synthetic.hpp"
 
 using namespace depowder;
@@ -18,10 +19,6 @@ const Eigen::Vector3d kBox(0.4, 0.3, 0.2);
 
 Scene scene() { return boxScene(kBox, 0.08, {Sphere{{0.02, 0.01, 0.09}, 0.04}}); }
 
-double percentile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  return v[static_cast<std::size_t>(q * (v.size() - 1))];
-}
 }  // namespace
 
 TEST(CameraProxy, TwoCamerasMergeIntoOneCroppedDownsampledCloud) {
@@ -183,7 +180,8 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   // Inside the grown cylinder (tip at z = 0, body along -z of the nozzle): how far in, m (< 0: outside).
   auto depthInside = [&](const Point& p) {
     const Point q = T_nozzle_cell * p;
-    return std::min({r - q.head<2>().norm(), cfg.self_filter.margin - q.z(), q.z() + cfg.self_filter.length + cfg.self_filter.margin});
+    return std::min({r - q.head<2>().norm(), cfg.self_filter.margin - q.z(),
+                     q.z() + cfg.self_filter.length + cfg.self_filter.margin});
   };
   int inside_before = 0;
   for (const Point& p : all.points) inside_before += depthInside(p) > 0;
