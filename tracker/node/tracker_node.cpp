@@ -72,6 +72,7 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   filter.read("reset_deg", c.filter.reset_deg, 1e-6, 180.0);
   filter.read("reset_m", c.filter.reset_m, 1e-7, 1.0);
   filter.read("reset_frames", c.filter.reset_frames, 0, 1000);
+  filter.read("check_every", c.filter.check_every, 1, 1000);
   filter.read("reset_inlier_margin", c.filter.reset_inlier_margin, 0.0, 1.0);
   filter.finish();
   const node::YamlReader st = r.child("status");

@@ -76,6 +76,7 @@ std::string validate(const TrackerConfig& c) {
   if (!positive(c.filter.reset_chi2) || !positive(c.filter.reset_deg) || !positive(c.filter.reset_m))
     return "filter.reset_chi2, filter.reset_deg and filter.reset_m must be > 0";
   if (c.filter.reset_frames < 0) return "filter.reset_frames must be >= 0 (0 = no disagreement check)";
+  if (c.filter.check_every < 1) return "filter.check_every must be >= 1 (1 = every frame)";
   if (!(std::isfinite(c.filter.reset_inlier_margin) && c.filter.reset_inlier_margin >= 0 &&
         c.filter.reset_inlier_margin <= 1))
     return "filter.reset_inlier_margin must be in [0, 1]";
@@ -143,10 +144,12 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
     c.filter.moving_frames = static_cast<int>(value);
   } else if (key == "filter.reset_frames") {
     c.filter.reset_frames = static_cast<int>(value);
+  } else if (key == "filter.check_every") {
+    c.filter.check_every = static_cast<int>(value);
   } else if (const auto it = fields.find(key); it != fields.end()) {
     *it->second = value;
   } else {
-    std::string known = "icp.max_iterations, filter.moving_frames, filter.reset_frames";
+    std::string known = "icp.max_iterations, filter.moving_frames, filter.reset_frames, filter.check_every";
     for (const auto& f : fields) known += ", " + f.first;
     throw std::invalid_argument("unknown tracker key '" + key + "' (known: " + known + ")");
   }

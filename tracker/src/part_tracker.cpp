@@ -347,12 +347,18 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
         r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
   // Not in the paper: the disagreement check (FilterConfig::reset_frames), the same scan
   // registered without the filter. A filter that holds a pushed part still never sees it move.
+  // A still part whose two fits agreed is checked every check_every-th frame only.
   bool reset = false;
-  if (filter && config_.filter.reset_frames > 0) {
+  const FilterConfig& fc = config_.filter;
+  if (filter && fc.reset_frames > 0 && (moving_ || fits_disagreed_ || ++unchecked_frames_ >= fc.check_every)) {
+    unchecked_frames_ = 0;
     t0 = Clock::now();
     const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
                                                      T_cell_part_, max_distance, config_.icp, nullptr);
+    const Vector6d d = deviation(free.T_target_source, reg.T_target_source);
+    fits_disagreed_ = d.head<3>().norm() * 180 / M_PI > fc.reset_deg / 2 || d.tail<3>().norm() > fc.reset_m;
     reset = restartFilter(reg, free, prior.information);
+    r.checked = true;
     r.reset = reset;
     r.timing.check_ms = msSince(t0);
   }

@@ -84,6 +84,7 @@ TEST(TrackerOptions, DefaultCellHasTheLibraryDefaults) {
   EXPECT_EQ(o.tracker.visibility.powder_scan_margin, d.visibility.powder_scan_margin);
   EXPECT_EQ(o.tracker.filter.data_inflation, d.filter.data_inflation);
   EXPECT_EQ(o.tracker.filter.reset_frames, d.filter.reset_frames);
+  EXPECT_EQ(o.tracker.filter.check_every, d.filter.check_every);
   EXPECT_EQ(o.tracker.filter.reset_chi2, d.filter.reset_chi2);
   EXPECT_EQ(o.tracker.filter.reset_deg, d.filter.reset_deg);
   EXPECT_EQ(o.tracker.filter.reset_m, d.filter.reset_m);

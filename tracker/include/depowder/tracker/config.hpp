@@ -94,9 +94,9 @@ struct FilterConfig {
                              ///< pushed part's (at this many times them), in proportion; 1 = at once
   double initial_deg = 0.5;  ///< uncertainty of the initial pose (and of a refit's), deg...
   double initial_m = 0.001;  ///< ...and m
-  /// The disagreement check: each frame the scan is also registered without the filter. Over
-  /// reset_frames frames in a row, the mean difference of the two fits is tested against both
-  /// fits' uncertainties (reset_chi2) and by what it asks of the pose in the ways a pushed part
+  /// The disagreement check: each frame (see check_every) the scan is also registered without
+  /// the filter. Over its last reset_frames runs, the mean difference of the two fits is tested
+  /// against both fits' uncertainties (reset_chi2) and by what it asks of the pose in the ways a pushed part
   /// moves (turns about the vertical and slides, reset_frames frames of process noise: beyond
   /// reset_deg or reset_m). Both beyond, and the free fits matching about as many template
   /// points as the filter's (reset_inlier_margin): the filter held a moving part still, and starts
@@ -107,6 +107,9 @@ struct FilterConfig {
   double reset_inlier_margin = 0.02;  ///< and the free fits' mean inlier ratio is at most this below the filter's
                                       ///< (they explain the scan about as well); 1 = no such test
   int reset_frames = 8;
+  /// While the part is still and the last check's two fits agreed (within reset_deg / 2 and
+  /// reset_m), the check runs every check_every-th frame only; otherwise every frame. 1 = always.
+  int check_every = 4;
 };
 
 struct TrackerConfig {

@@ -48,6 +48,7 @@ struct TrackResult {
   bool template_updated = false;        ///< Alg. 2 ran this frame
   bool refit = false;                   ///< the refit replaced ICP's pose (TrackerConfig::refit_margin)
   bool reset = false;                   ///< the filter started again (FilterConfig::reset_frames)
+  bool checked = false;                 ///< the disagreement check ran this frame (FilterConfig::check_every)
   bool moving = false;                  ///< the filter takes the part as moving (FilterConfig::moving_translation)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
@@ -125,6 +126,8 @@ class PartTracker {
     double inlier_gain;
   };
   std::deque<Disagreement> disagreements_;
+  int unchecked_frames_ = 0;    ///< frames since the disagreement check last ran
+  bool fits_disagreed_ = true;  ///< the last check's two fits differed beyond reset_deg / 2 or reset_m
   void resetInformation();
   Vector6d processVariance() const;  ///< a pushed part's, per frame (PosePrior's coordinates)
   bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
