@@ -19,8 +19,6 @@
 
 using namespace depowder;
 
-namespace {}  // namespace
-
 int main(int argc, char** argv) {
   std::string cell_path = node::defaultCellPath();
   int yaws = 4;

@@ -118,12 +118,14 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
                                 const Matrix6d& prior_information) {
   const FilterConfig& f = config_.filter;
   const StatusConfig& s = config_.status;
+  const Vector6d difference = deviation(free.T_target_source, filtered.T_target_source);
+  fits_disagreed_ =
+      difference.head<3>().norm() * 180 / M_PI > f.reset_deg / 2 || difference.tail<3>().norm() > f.reset_m;
   if (!free.ok() || !isValidPose(free.T_target_source, 1e-6) || free.inlier_ratio < s.tracking_min_inlier_ratio ||
       free.rms > s.tracking_max_rms) {
     disagreements_.clear();  // a doubtful free fit says nothing, and the mean starts again
     return false;
   }
-  const Vector6d difference = deviation(free.T_target_source, filtered.T_target_source);
   disagreements_.push_back({difference, free.inlier_ratio - filtered.inlier_ratio});
   if (disagreements_.size() > static_cast<std::size_t>(f.reset_frames)) disagreements_.pop_front();
   if (disagreements_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
@@ -355,8 +357,6 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     t0 = Clock::now();
     const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
                                                      T_cell_part_, max_distance, config_.icp, nullptr);
-    const Vector6d d = deviation(free.T_target_source, reg.T_target_source);
-    fits_disagreed_ = d.head<3>().norm() * 180 / M_PI > fc.reset_deg / 2 || d.tail<3>().norm() > fc.reset_m;
     reset = restartFilter(reg, free, prior.information);
     r.checked = true;
     r.reset = reset;
