@@ -126,14 +126,7 @@ class CameraNode {
       int timeout_ms = 50;
       if (const std::int64_t deadline = proxy_.nextDeadline(); deadline > 0)
         timeout_ms = static_cast<int>(std::clamp<std::int64_t>((deadline - nowUtime() + 999) / 1000, 0, 50));
-      try {
-        bus_.spinOnce(timeout_ms);
-      } catch (const node::BusError&) {
-        // lcm_handle_timeout fails with EINTR when SIGTERM / SIGINT interrupts it: that is
-        // the shutdown, not a fault.
-        if (node::shutdownRequested()) break;
-        throw;
-      }
+      bus_.spinOnce(timeout_ms);
       publishReady();
       for (const std::string& e : bus_.takeErrors()) std::fprintf(stderr, "depowder-camera: %s\n", e.c_str());
       updateHealth();

@@ -68,12 +68,7 @@ int main(int argc, char** argv) {
     // 3. Main loop: handle messages, release frames that waited for their poses, publish.
     std::map<std::string, std::string> problems;  // per part, from its last message
     while (!node::shutdownRequested()) {
-      try {
-        bus.spinOnce(10);
-      } catch (const node::BusError&) {
-        if (node::shutdownRequested()) break;  // the signal interrupted LCM's wait: not an error
-        throw;
-      }
+      bus.spinOnce(10);
       append(logic.poll(node::nowUtime()));
       for (const progress_t& m : out) {
         bus.publish("PROGRESS", m);

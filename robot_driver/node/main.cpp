@@ -173,12 +173,7 @@ int main(int argc, char** argv) {
     std::string last_reason;
     while (!node::shutdownRequested()) {
       const std::int64_t wait_ns = next_state - robot::bcap::monotonicNs();
-      try {
-        if (wait_ns > 0) bus.spinOnce(static_cast<int>(std::max<std::int64_t>(wait_ns / 1000000, 0)));
-      } catch (const node::BusError&) {
-        if (node::shutdownRequested()) break;
-        throw;
-      }
+      if (wait_ns > 0) bus.spinOnce(static_cast<int>(std::max<std::int64_t>(wait_ns / 1000000, 0)));
       if (robot::bcap::monotonicNs() < next_state) continue;
       next_state += period_ns;
       if (next_state < robot::bcap::monotonicNs()) next_state = robot::bcap::monotonicNs() + period_ns;

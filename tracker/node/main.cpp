@@ -99,13 +99,8 @@ int main(int argc, char** argv) {
 
     // 3. Main loop: take every waiting message, track the newest frame, publish.
     while (!node::shutdownRequested()) {
-      try {
-        bus.spinOnce(pending ? 0 : 20);
-        while (bus.spinOnce(0) > 0) {
-        }
-      } catch (const node::BusError&) {
-        if (node::shutdownRequested()) break;  // the signal interrupted LCM's wait: not an error
-        throw;
+      bus.spinOnce(pending ? 0 : 20);
+      while (bus.spinOnce(0) > 0) {
       }
       if (pending) {
         const point_cloud_t frame = std::move(*pending);

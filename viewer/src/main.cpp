@@ -214,13 +214,12 @@ int main(int argc, char** argv) {
 
     // One LCM message (or a timeout). False at the end of a log (--url file://...): LCM's
     // log provider reports it as a failed handle.
-    // A signal (SIGTERM from the launcher) interrupting LCM's wait also fails the handle.
     auto pump = [&](int wait_ms) {
       try {
         bus.spinOnce(wait_ms);
         return true;
       } catch (const node::BusError&) {
-        if (replay || node::shutdownRequested()) return false;
+        if (replay) return false;
         throw;
       }
     };
@@ -293,7 +292,7 @@ int main(int argc, char** argv) {
           try {
             viewer::drain(bus, 0, 20);
           } catch (const node::BusError&) {
-            if (!replay && !node::shutdownRequested()) throw;
+            if (!replay) throw;
             more = false;  // end of the log: keep showing the last state
           }
         }

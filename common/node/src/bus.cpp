@@ -6,6 +6,8 @@
 #include <exception>
 #include <utility>
 
+#include "depowder/node/shutdown.hpp"
+
 namespace depowder::node {
 
 struct Bus::Subscription {
@@ -68,7 +70,7 @@ int Bus::spinOnce(int timeout_ms) {
   const auto before = counters_.received + counters_.decode_errors + counters_.handler_errors;
   errno = 0;
   const int rc = lcm_.handleTimeout(timeout_ms);
-  if (rc < 0 && errno == EINTR) return 0;  // a signal (e.g. SIGTERM for shutdown) interrupted the wait
+  if (rc < 0 && (errno == EINTR || shutdownRequested())) return 0;  // SIGTERM or SIGINT interrupted the wait
   if (rc < 0) throw BusError("LCM handle failed (the LCM socket reported an error)");
   return static_cast<int>(counters_.received + counters_.decode_errors + counters_.handler_errors - before);
 }

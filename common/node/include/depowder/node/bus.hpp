@@ -66,7 +66,8 @@ class Bus {
   }
 
   /// Waits up to timeout_ms for messages and handles them. Returns the number handled
-  /// (0 on timeout). Throws BusError if LCM itself fails.
+  /// (0 on timeout, and when a signal interrupted the wait or shutdown was requested: the
+  /// caller's loop checks shutdownRequested()). Throws BusError if LCM itself fails.
   int spinOnce(int timeout_ms);
 
   /// Handles messages until `done()` is true or `seconds` have passed; returns done().
