@@ -7,17 +7,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
-#include <sstream>
 
+#include "cube_messages.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
-#include "depowder/node/convert.hpp"
 #include "depowder/nozzle_plan_t.hpp"
-#include "depowder/part_pose_t.hpp"
-#include "depowder/parts.hpp"
 #include "depowder/process_under_test.hpp"
-#include "depowder/progress_t.hpp"
-#include "fixtures.hpp"
 
 namespace depowder::planner {
 namespace {
@@ -27,46 +22,11 @@ const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 class PlannerProcess : public ::testing::Test {
  protected:
   void SetUp() override {
-    std::ostringstream cell;
-    cell << "parts:\n  - name: cube\n    mesh: " << DEPOWDER_SOURCE_DIR
-         << "/config/parts/cube.stl\n    initial_pose: {xyz: [0, 0, 0.03], rpy_deg: [0, 0, 0]}\n"
-         << "robot:\n  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
-         << "  tool_offset: {xyz: [0, 0, 0.25], rpy_deg: [0, 0, 0]}\n"
-         << "planner: {heartbeat_period: 0.2}\n";
-    process_.start({"--cell", process_.write("cell.yaml", cell.str()), "--url", kUrl, "--prefix", process_.prefix()});
+    process_.start({"--cell", process_.write("cell.yaml", test::cubeCellYaml("planner: {heartbeat_period: 0.2}\n")),
+                    "--url", kUrl, "--prefix", process_.prefix()});
   }
   testutil::ProcessUnderTest process_{"depowder-planner"};
 };
-
-part_pose_t poseMsg(std::int64_t utime, const Pose& T) {
-  part_pose_t m{};
-  m.utime = utime;
-  m.part = "cube";
-  m.method = "cu";
-  m.status = part_pose_t::TRACKING;
-  m.T_cell_part = node::toMsg(T);
-  m.template_size = 0;
-  return m;
-}
-
-progress_t progressMsg(std::int64_t utime, const Pose& T, double powder) {
-  progress_t m{};
-  m.utime = utime;
-  m.part = "cube";
-  m.phase = progress_t::PHASE_VACUUM_TRACKED;
-  m.status = progress_t::OK;
-  m.eta = 0.5;
-  m.eta_raw = 0.5;
-  m.h_pow = powder;
-  m.h_max = T.translation().z() + 0.03;
-  m.h_min = T.translation().z() - 0.03;
-  m.T_cell_part = node::toMsg(T);
-  for (const Point& p : test::syntheticContour(transformed(parts::byName("cube"), T), powder))
-    m.contour.push_back({static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())});
-  m.num_contour = static_cast<std::int32_t>(m.contour.size());
-  m.num_band = 0;
-  return m;
-}
 
 TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   node::Bus bus(kUrl, process_.prefix());
@@ -80,15 +40,15 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-planner";
 
   // 1. Bad input first: a NaN pose and garbage on PROGRESS. Counted; no plan with waypoints.
-  part_pose_t bad = poseMsg(1000, Pose::Identity());
+  part_pose_t bad = test::cubePose(1000, Pose::Identity());
   bad.T_cell_part.position[2] = std::nan("");
   bus.publish("PART_POSE", bad);
   bus.publishRaw("PROGRESS", "not progress", 12);
 
   // 2. A pose and its progress: a plan stamped with that frame, waypoints with IK solutions.
   const Pose T = makePoseRpy({0.01, 0.0, 0.03}, 0, 0, 0.2);
-  bus.publish("PART_POSE", poseMsg(2000, T));
-  bus.publish("PROGRESS", progressMsg(2000, T, 0.04));
+  bus.publish("PART_POSE", test::cubePose(2000, T));
+  bus.publish("PROGRESS", test::cubeProgress(2000, T, 0.04));
   ASSERT_TRUE(bus.spinUntil([&] { return !plans.empty() && plans.back().num_waypoints > 0; }, 10));
   const nozzle_plan_t& plan = plans.back();
   EXPECT_EQ(plan.utime, 2000);

@@ -4,10 +4,10 @@
 
 #include <cmath>
 
+#include "cube_messages.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/parts.hpp"
-#include "fixtures.hpp"
 #include "planner_node.hpp"
 
 using namespace depowder;
@@ -15,20 +15,9 @@ using namespace depowder::planner;
 
 namespace {
 
-const std::string kCube = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/cube.stl";
-
-/// A one-cube cell with the arm as in the default cell but a 25 cm nozzle (see fixtures.hpp).
-std::string cellYaml(const std::string& planner_section = "planner: {}\n") {
-  return "parts:\n  - name: cube\n    mesh: " + kCube +
-         "\n    initial_pose: {xyz: [0.0, 0.0, 0.03], rpy_deg: [0, 0, 0]}\n"
-         "robot:\n  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
-         "  tool_offset: {xyz: [0, 0, 0.25], rpy_deg: [0, 0, 0]}\n" +
-         planner_section;
-}
-
 void expectError(const std::string& planner_section, const std::string& needle) {
   try {
-    readPlannerOptions(node::loadCellFromString(cellYaml(planner_section), "bad.yaml"));
+    readPlannerOptions(node::loadCellFromString(test::cubeCellYaml(planner_section), "bad.yaml"));
     ADD_FAILURE() << "accepted:\n" << planner_section;
   } catch (const node::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
@@ -62,43 +51,16 @@ TEST(PlannerOptions, RejectsUnknownKeysAndBadValues) {
 
 class NodeTest : public ::testing::Test {
  protected:
-  node::CellConfig cell = node::loadCellFromString(cellYaml(), "test.yaml");
+  node::CellConfig cell = node::loadCellFromString(test::cubeCellYaml(), "test.yaml");
   PlannerNodeOptions options = readPlannerOptions(cell);
   PlannerNode node{cell, options};
   std::int64_t utime = 5000000;
-
-  part_pose_t pose(const Pose& T) const {
-    part_pose_t m{};
-    m.utime = utime;
-    m.part = "cube";
-    m.method = "cu";
-    m.status = part_pose_t::TRACKING;
-    m.T_cell_part = node::toMsg(T);
-    return m;
-  }
-  progress_t progress(const Pose& T, double powder) const {
-    progress_t m{};
-    m.utime = utime;
-    m.part = "cube";
-    m.phase = progress_t::PHASE_VACUUM_TRACKED;
-    m.status = progress_t::OK;
-    m.eta = 0.5;
-    m.h_pow = powder;
-    m.h_max = T.translation().z() + 0.03;
-    m.h_min = T.translation().z() - 0.03;
-    m.T_cell_part = node::toMsg(T);
-    for (const Point& p : test::syntheticContour(transformed(parts::byName("cube"), T), powder))
-      m.contour.push_back({static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())});
-    m.num_contour = static_cast<std::int32_t>(m.contour.size());
-    m.num_band = 0;
-    return m;
-  }
 };
 
 TEST_F(NodeTest, PlanOnTheWireCarriesIkSolutionsAndTheFrameUtime) {
   const Pose T = makePoseRpy({0.02, 0.01, 0.03}, 0, 0, 0.3);
-  ASSERT_TRUE(node.onPose(pose(T)).ok());
-  ASSERT_TRUE(node.onProgress(progress(T, 0.04)).ok());
+  ASSERT_TRUE(node.onPose(test::cubePose(utime, T)).ok());
+  ASSERT_TRUE(node.onProgress(test::cubeProgress(utime, T, 0.04)).ok());
   const auto msg = node.step();
   ASSERT_TRUE(msg);
   EXPECT_EQ(msg->utime, utime);
@@ -121,21 +83,21 @@ TEST_F(NodeTest, PlanOnTheWireCarriesIkSolutionsAndTheFrameUtime) {
 }
 
 TEST_F(NodeTest, BadMessagesAreRejectedWithAReason) {
-  part_pose_t bad = pose(Pose::Identity());
+  part_pose_t bad = test::cubePose(utime, Pose::Identity());
   bad.T_cell_part.position[0] = std::nan("");
   const InputResult r = node.onPose(bad);
   EXPECT_EQ(r.status, InputStatus::kInvalidPose);
   EXPECT_NE(r.reason.find("cube"), std::string::npos) << r.reason;
-  part_pose_t unnormalised = pose(Pose::Identity());
+  part_pose_t unnormalised = test::cubePose(utime, Pose::Identity());
   unnormalised.T_cell_part.orientation[0] = 2.0;
   EXPECT_EQ(node.onPose(unnormalised).status, InputStatus::kInvalidPose);
-  progress_t empty = progress(Pose::Identity(), 0.04);
+  progress_t empty = test::cubeProgress(utime, Pose::Identity(), 0.04);
   empty.contour.clear();
   empty.num_contour = 0;
   const InputResult e = node.onProgress(empty);
   EXPECT_EQ(e.status, InputStatus::kInvalidContour);
   EXPECT_NE(e.reason.find("0 points"), std::string::npos) << e.reason;
-  progress_t mismatch = progress(Pose::Identity(), 0.04);
+  progress_t mismatch = test::cubeProgress(utime, Pose::Identity(), 0.04);
   mismatch.num_contour = 3;
   EXPECT_EQ(node.onProgress(mismatch).status, InputStatus::kInvalidContour);
   robot_state_t robot{};
@@ -152,7 +114,7 @@ TEST_F(NodeTest, BadMessagesAreRejectedWithAReason) {
 
 TEST_F(NodeTest, NoPoseProgressWithNaNHeightsIsAccepted) {
   // The estimator sends NaN heights without a contour; that is a state, not a bad message.
-  progress_t m = progress(Pose::Identity(), 0.04);
+  progress_t m = test::cubeProgress(utime, Pose::Identity(), 0.04);
   m.status = progress_t::NO_POSE;
   m.h_pow = m.h_max = m.h_min = std::nan("");
   m.contour.clear();
