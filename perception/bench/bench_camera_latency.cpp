@@ -14,12 +14,14 @@
 #include <string>
 
 #include "camera_run.hpp"
-#include "netns_helpers.hpp"
+#include "depowder/child_process.hpp"
+#include "depowder/stats.hpp"
 #include "synthetic.hpp"
 
 using namespace depowder;
 using namespace depowder::perception;
 using namespace depowder::perception::testing;
+using namespace depowder::testutil;
 namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {

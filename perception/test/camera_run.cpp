@@ -7,9 +7,9 @@
 #include <mutex>
 #include <thread>
 
+#include "depowder/child_process.hpp"
 #include "depowder/node/convert.hpp"
 #include "depth_msg.hpp"
-#include "netns_helpers.hpp"
 
 namespace depowder::perception::testing {
 
@@ -44,7 +44,7 @@ CameraRunResult runCamera(const CameraRunConfig& config) {
 
   std::vector<std::string> argv = {config.binary, "--prefix", config.prefix};
   argv.insert(argv.end(), config.extra_args.begin(), config.extra_args.end());
-  ChildProcess child(argv, config.log_path);
+  testutil::ChildProcess child(argv, config.log_path);
   child_pid = child.pid();
   // Its first heartbeat says it is up and subscribed.
   for (auto end = Clock::now() + std::chrono::seconds(10); !started && Clock::now() < end;) listener.spinOnce(50);

@@ -1,6 +1,6 @@
 // One run of depowder-camera as a separate process: this process publishes DEPTH_<CAM>
 // frames on a schedule (one thread) and records POINTS and HEARTBEAT (another), over udpm.
-// Only call it inside a private network namespace (see inPrivateNetwork()).
+// Only call it inside a private network namespace (see testutil::inPrivateNetwork()).
 #pragma once
 
 #include <cstdint>

@@ -9,14 +9,16 @@
 #include <fstream>
 
 #include "camera_run.hpp"
+#include "depowder/child_process.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/perception/camera_proxy.hpp"
-#include "netns_helpers.hpp"
+#include "depowder/stats.hpp"
 #include "synthetic.hpp"
 
 using namespace depowder;
 using namespace depowder::perception;
 using namespace depowder::perception::testing;
+using namespace depowder::testutil;
 namespace fs = std::filesystem;
 
 namespace {

@@ -3,15 +3,10 @@
 // (test/netns-run), so the multicast never leaves it.
 #pragma once
 
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <chrono>
-#include <cstdlib>
-#include <fstream>
 #include <functional>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -19,6 +14,7 @@
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/nozzle_plan_t.hpp"
+#include "depowder/process_under_test.hpp"
 #include "depowder/robot/kinematics.hpp"
 #include "depowder/sim/bcap_emulator.hpp"
 
@@ -36,45 +32,25 @@ class DriverProcess {
     emu = std::make_unique<sim::BcapEmulator>(ecfg);
     std::string err;
     if (!emu->start(&err)) throw std::runtime_error(err);
-    char dir[] = "/tmp/depowder_driver_lcm_XXXXXX";
-    if (!mkdtemp(dir)) throw std::runtime_error("mkdtemp failed");
-    dir_ = dir;
-    const std::string cell = dir_ + "/cell.yaml";
-    std::ofstream(cell) << "robot:\n"
-                        << "  controller: {port: " << emu->port() << ", reconnect_period: 0.1}\n"
-                        << "  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
-                        << "  tool_offset: {xyz: [0, 0, 0.129], rpy_deg: [0, 0, 0]}\n"
-                        << "  heartbeat_period: 0.2\n"
-                        << robot_yaml;
+    std::ostringstream cell;
+    cell << "robot:\n"
+         << "  controller: {port: " << emu->port() << ", reconnect_period: 0.1}\n"
+         << "  base_pose: {xyz: [-0.55, 0, 0], rpy_deg: [0, 0, 0]}\n"
+         << "  tool_offset: {xyz: [0, 0, 0.129], rpy_deg: [0, 0, 0]}\n"
+         << "  heartbeat_period: 0.2\n"
+         << robot_yaml;
     arm.T_cell_base = makePoseRpy({-0.55, 0, 0}, 0, 0, 0);
     arm.T_flange_nozzle = makePoseRpy({0, 0, 0.129}, 0, 0, 0);
-    prefix = "DRIVER_TEST_" + std::to_string(getpid()) + "_";
-    child = fork();
-    if (child == 0) {
-      const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-driver";
-      execl(exe.c_str(), "depowder-driver", "--cell", cell.c_str(), "--url", kUdpmUrl, "--prefix", prefix.c_str(),
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
+    prefix = process_.prefix();
+    process_.start({"--cell", process_.write("cell.yaml", cell.str()), "--url", kUdpmUrl, "--prefix", prefix});
     bus = std::make_unique<node::Bus>(kUdpmUrl, prefix);
   }
   ~DriverProcess() {
-    if (child > 0) {
-      kill(child, SIGKILL);
-      waitpid(child, nullptr, 0);
-    }
     bus.reset();
-    emu->stop();
-    std::system(("rm -rf '" + dir_ + "'").c_str());
+    emu->stop();  // then the driver, if still running, is stopped as process_ goes
   }
-  /// SIGTERM and wait; the exit status, -1 if it did not exit normally.
-  int terminate() {
-    kill(child, SIGTERM);
-    int status = 0;
-    waitpid(child, &status, 0);
-    child = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
+  /// SIGTERM and wait; the exit status (128 + the signal if one ended it).
+  int terminate() { return process_.terminate(); }
   bool spinUntil(const std::function<bool()>& done, double seconds) {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
     while (!done() && std::chrono::steady_clock::now() < end) bus->spinOnce(2);
@@ -114,10 +90,9 @@ class DriverProcess {
   std::unique_ptr<node::Bus> bus;
   ArmConfig arm;
   std::string prefix;
-  pid_t child = -1;
 
  private:
-  std::string dir_;
+  testutil::ProcessUnderTest process_{"depowder-driver"};
 };
 
 }  // namespace depowder::robot::test

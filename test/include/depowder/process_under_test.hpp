@@ -1,6 +1,6 @@
 // A depowder process started by a test (the LCM process tests, run inside a private network
 // namespace): a temporary directory of its own for the files it reads, a channel prefix of its
-// own, stopped by SIGTERM or, at the end of the test, killed and reaped.
+// own, stopped by SIGTERM (at the end of the test, killed if it will not stop) and reaped.
 //
 //   testutil::ProcessUnderTest tracker("depowder-tracker");
 //   tracker.start({"--config", tracker.write("cell.yaml", yaml), "--url", url, "--prefix", tracker.prefix()});
@@ -8,16 +8,17 @@
 //   EXPECT_EQ(tracker.terminate(), 0);  // a clean exit
 #pragma once
 
-#include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cctype>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "depowder/child_process.hpp"
 
 namespace depowder::testutil {
 
@@ -35,10 +36,7 @@ class ProcessUnderTest {
   ProcessUnderTest(const ProcessUnderTest&) = delete;
   ProcessUnderTest& operator=(const ProcessUnderTest&) = delete;
   ~ProcessUnderTest() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
+    child_.reset();
     std::system(("rm -rf '" + dir_ + "'").c_str());
   }
 
@@ -56,32 +54,24 @@ class ProcessUnderTest {
 
   /// Starts the executable with `args`.
   void start(const std::vector<std::string>& args) {
-    if (pid_ > 0) throw std::logic_error(name_ + " is already running");
-    std::vector<char*> argv{const_cast<char*>(name_.c_str())};
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    const std::string path = exe();
-    pid_ = fork();
-    if (pid_ == 0) {
-      execv(path.c_str(), argv.data());
-      _exit(127);
-    }
-    if (pid_ < 0) throw std::runtime_error("cannot fork " + name_);
+    if (child_) throw std::logic_error(name_ + " is already running");
+    std::vector<std::string> argv{exe()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    child_ = std::make_unique<ChildProcess>(argv);
   }
 
-  /// SIGTERM, then its exit code; -1 if it was not running or did not exit by itself (a signal).
+  /// SIGTERM, then its exit code (128 + the signal if one ended it); -1 if it was not running
+  /// or did not exit within 30 s.
   int terminate() {
-    if (pid_ <= 0) return -1;
-    kill(pid_, SIGTERM);
-    int status = 0;
-    const pid_t waited = waitpid(pid_, &status, 0);
-    pid_ = -1;
-    return waited > 0 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    if (!child_) return -1;
+    const int status = child_->stop(30.0);
+    child_.reset();
+    return status;
   }
 
  private:
   std::string name_, dir_, prefix_;
-  pid_t pid_ = -1;
+  std::unique_ptr<ChildProcess> child_;
 };
 
 }  // namespace depowder::testutil
