@@ -16,6 +16,7 @@
 #include "depowder/progress/progress.hpp"
 #include "depowder/sim/world.hpp"
 #include "depowder/stats.hpp"
+#include "setup.hpp"  // sim::cameraModelOf
 
 using namespace depowder;
 
@@ -35,15 +36,7 @@ int main(int argc, char** argv) {
   }
   const node::CellConfig cell = node::loadCell(cell_path);
   std::vector<sim::CameraModel> cameras;
-  for (const node::CameraConfig& c : cell.cameras) {
-    sim::CameraModel m =
-        sim::CameraModel::fromFov(c.name, c.width, c.height, c.fov_h_deg, c.fov_v_deg, c.T_cell_camera);
-    m.min_range = c.min_range;
-    m.max_range = c.max_range;
-    m.noise = {c.noise.sigma_base,  c.noise.sigma_per_m,         c.noise.flying_pixel_prob,
-               m.noise.flying_edge, c.noise.grazing_dropout_deg, c.noise.dropout_prob};
-    cameras.push_back(m);
-  }
+  for (const node::CameraConfig& c : cell.cameras) cameras.push_back(sim::cameraModelOf(c));
   sim::BoxGeometry box{cell.box.size, cell.box.wall};
   const sim::SimConfig sim_config;
   const double cad_spacing = 0.003, voxel = 0.005;

@@ -5,6 +5,7 @@
 #include "depowder/perception/depth.hpp"
 #include "depowder/perception/voxel_grid.hpp"
 #include "depowder/sim/world.hpp"
+#include "setup.hpp"  // sim::cameraModelOf
 
 namespace depowder::tracker::bench {
 
@@ -19,15 +20,7 @@ struct SimFrames::Impl {
 SimFrames::SimFrames(const std::string& cell_path) : impl_(std::make_unique<Impl>()) {
   const node::CellConfig cell = node::loadCell(cell_path);
   impl_->file = cell.file;
-  for (const node::CameraConfig& c : cell.cameras) {
-    sim::CameraModel m =
-        sim::CameraModel::fromFov(c.name, c.width, c.height, c.fov_h_deg, c.fov_v_deg, c.T_cell_camera);
-    m.min_range = c.min_range;
-    m.max_range = c.max_range;
-    m.noise = {c.noise.sigma_base,  c.noise.sigma_per_m,         c.noise.flying_pixel_prob,
-               m.noise.flying_edge, c.noise.grazing_dropout_deg, c.noise.dropout_prob};
-    impl_->cameras.push_back(m);
-  }
+  for (const node::CameraConfig& c : cell.cameras) impl_->cameras.push_back(sim::cameraModelOf(c));
   impl_->box = {cell.box.size, cell.box.wall};
   // The camera proxy's crop: the box interior plus its margin (walls and table left out).
   impl_->crop = perception::cropBox(cell.box.size, impl_->proxy.crop_margin);
