@@ -100,6 +100,7 @@ stop_run() { for p in $launcher_pids; do kill -TERM "$p" 2>/dev/null || true; do
 wait_run() { wait "$main_pid" || true; }  # the monitor ends it when the part is done
 # The wall-clock utime of the sim's fault line (its frames carry the wall clock too).
 sim_fault_utime() { sed -n 's/.*fault at t = .* wall utime \([0-9]*\)).*/\1/p' run_*/sim.log | head -1; }
+sim_fault_over_utime() { sed -n 's/.*fault over at t = .* wall utime \([0-9]*\)).*/\1/p' run_*/sim.log | head -1; }
 
 until_opt=""
 case $FAULT in
@@ -137,8 +138,16 @@ camera_silent | controller_drop)
   on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
   while [ -z "$(sim_fault_utime)" ]; do sleep 1; done
   at=$(sim_fault_utime)
-  [ "$FAULT" = camera_silent ] && until_opt="--until $((at + 20000000))"
-  sleep 30
+  if [ "$FAULT" = camera_silent ]; then
+    # The silence ends when the sim says so: after a stall the sim catches up, and its 20 s end
+    # sooner in wall time than at + 20 s.
+    for _ in $(seq 60); do [ -n "$(sim_fault_over_utime)" ] && break; sleep 1; done
+    [ -n "$(sim_fault_over_utime)" ] || { echo "FAILED: the sim never ended the camera's silence"; exit 1; }
+    until_opt="--until $(sim_fault_over_utime)"
+    sleep 10
+  else
+    sleep 30
+  fi
   stop_run ;;
 *) echo "unknown fault $FAULT"; exit 2 ;;
 esac

@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
     std::int64_t truth_due = 1;
     double render_ms = 0, step_ms = 0, lag_s = 0;
     std::int64_t frames = 0;
-    std::vector<bool> fault_done(setup.faults.size(), false);
+    std::vector<bool> fault_done(setup.faults.size(), false), fault_over(setup.faults.size(), false);
     auto silenced = [&](const std::string& camera, double t) {
       for (const SimSetup::Fault& f : setup.faults)
         if (f.silence_camera == camera && t >= f.at && t < f.at + f.duration) return true;
@@ -203,6 +203,15 @@ int main(int argc, char** argv) {
                           ? std::string("controller connections dropped")
                           : "camera " + f.silence_camera + " silent for " + std::to_string(f.duration) + " s")
                   << std::endl;
+      }
+      // A silenced camera's end, in the same form: a sim catching up after a stall ends it
+      // earlier in wall time than its start + duration (test/faults.sh reads both).
+      for (std::size_t i = 0; i < setup.faults.size(); ++i) {
+        const SimSetup::Fault& f = setup.faults[i];
+        if (fault_over[i] || f.silence_camera.empty() || t < f.at + f.duration) continue;
+        fault_over[i] = true;
+        std::cout << "depowder-sim: fault over at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
+                  << node::nowUtime() << "): camera " << f.silence_camera << " publishes again" << std::endl;
       }
 
       // 3b. Physics of the powder and contacts.
