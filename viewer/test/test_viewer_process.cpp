@@ -4,18 +4,18 @@
 // scene; the picture must show the model red and the template green where they
 // project. Also: --snapshots / --snapshot-on-phase, lcm-logplayer and file:// replay.
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <random>
 #include <set>
 #include <thread>
 
+#include "depowder/child_process.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
@@ -41,46 +41,13 @@ const std::vector<std::string> kChannels = {"POINTS",    "PART_POSE",   "PROGRES
 double seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 /// Runs depowder-viewer (with no DISPLAY unless `display` is given); stdout and stderr go to `log`.
-pid_t spawnViewer(const std::vector<std::string>& args, const fs::path& log, const std::string& display = "") {
-  const std::string exe = std::string(DEPOWDER_BIN_DIR) + "/depowder-viewer";
-  const pid_t pid = fork();
-  if (pid == 0) {
-    if (display.empty())
-      unsetenv("DISPLAY");
-    else
-      setenv("DISPLAY", display.c_str(), 1);
-    unsetenv("LCM_DEFAULT_URL");
-    FILE* f = std::fopen(log.c_str(), "w");
-    if (f) {
-      dup2(fileno(f), STDOUT_FILENO);
-      dup2(fileno(f), STDERR_FILENO);
-    }
-    std::vector<char*> argv{const_cast<char*>(exe.c_str())};
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execv(exe.c_str(), argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-/// Exit status, or -1 if it is still running after `timeout_s` (then it is killed).
-int waitExit(pid_t pid, double timeout_s) {
-  const double end = seconds() + timeout_s;
-  int status = 0;
-  while (seconds() < end) {
-    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  kill(pid, SIGKILL);
-  waitpid(pid, &status, 0);
-  return -1;
-}
-
-/// True while the child runs (it is not reaped: waitExit collects its status).
-bool running(pid_t pid) {
-  siginfo_t info{};
-  return waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == 0;
+std::unique_ptr<testutil::ChildProcess> spawnViewer(const std::vector<std::string>& args, const fs::path& log,
+                                                    const std::string& display = "") {
+  std::vector<std::string> argv{std::string(DEPOWDER_BIN_DIR) + "/depowder-viewer"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  return std::make_unique<testutil::ChildProcess>(
+      argv, log.string(),
+      std::vector<std::string>{display.empty() ? "DISPLAY" : "DISPLAY=" + display, "LCM_DEFAULT_URL"});
 }
 
 std::string slurp(const fs::path& p) {
@@ -205,25 +172,25 @@ class ViewerProcess : public ::testing::Test {
 
 TEST_F(ViewerProcess, SurvivesGarbageThenPicturesTheKnownScene) {
   const fs::path png = dir_ / "out" / "snap.png";
-  const pid_t pid = spawnViewer(
+  const auto viewer = spawnViewer(
       {"--config", (dir_ / "cell.yaml").string(), "--snapshot", png.string(), "--size", "640x480", "--timeout", "30"},
       dir_ / "viewer.log");
   // 1. Its heartbeat says it is listening.
-  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !running(pid); }, 20)) << log();
-  ASSERT_TRUE(running(pid)) << log();
+  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !viewer->running(); }, 20)) << log();
+  ASSERT_TRUE(viewer->running()) << log();
   // 2. Garbage on every channel until its heartbeat counts it; it keeps running.
   std::mt19937 rng(7);
   int sent = 0;
-  ASSERT_TRUE(spinUntil([&] { return heartbeat_.decode_errors >= 12 || !running(pid); }, 10,
+  ASSERT_TRUE(spinUntil([&] { return heartbeat_.decode_errors >= 12 || !viewer->running(); }, 10,
                         [&] { sent += publishGarbage(*bus_, rng); }))
       << log();
-  ASSERT_TRUE(running(pid)) << log();
+  ASSERT_TRUE(viewer->running()) << log();
   EXPECT_EQ(heartbeat_.state, +heartbeat_t::RUNNING);
   EXPECT_LE(heartbeat_.decode_errors, sent);
   EXPECT_EQ(heartbeat_.received, 0);
   // 3. The known scene until it has taken its picture and exited.
   std::int64_t seq = 0;
-  ASSERT_TRUE(spinUntil([&] { return !running(pid); }, 20,
+  ASSERT_TRUE(spinUntil([&] { return !viewer->running(); }, 20,
                         [&] {
                           bus_->publish("POINTS", points(seq, 1000 + seq));
                           bus_->publish("PART_POSE", partPose(1000 + seq));
@@ -231,17 +198,17 @@ TEST_F(ViewerProcess, SurvivesGarbageThenPicturesTheKnownScene) {
                           ++seq;
                         }))
       << log();
-  EXPECT_EQ(waitExit(pid, 5), 0) << log();
+  EXPECT_EQ(viewer->wait(5), 0) << log();
   expectKnownScene(png, 640, 480);
   EXPECT_NE(log().find("could not decode"), std::string::npos) << log();
 }
 
 TEST_F(ViewerProcess, SnapshotsEveryNFramesAndOnPhaseChange) {
   const fs::path every = dir_ / "every", phases = dir_ / "phases";
-  const pid_t pid = spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--snapshots", every.string(), "--every",
-                                 "5", "--snapshot-on-phase", phases.string(), "--size", "320x240"},
-                                dir_ / "viewer.log");
-  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !running(pid); }, 20)) << log();
+  const auto viewer = spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--snapshots", every.string(), "--every",
+                                   "5", "--snapshot-on-phase", phases.string(), "--size", "320x240"},
+                                  dir_ / "viewer.log");
+  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !viewer->running(); }, 20)) << log();
   for (std::int64_t seq = 0; seq < 12; ++seq) {
     bus_->publish("POINTS", points(seq, 1000 + seq));
     bus_->publish("PART_POSE", partPose(1000 + seq));
@@ -250,9 +217,8 @@ TEST_F(ViewerProcess, SnapshotsEveryNFramesAndOnPhaseChange) {
     spinUntil([] { return false; }, 0.1);
   }
   spinUntil([] { return false; }, 1.0);  // let it finish the last pictures
-  ASSERT_TRUE(running(pid)) << log();
-  kill(pid, SIGTERM);
-  EXPECT_EQ(waitExit(pid, 10), 0) << log();
+  ASSERT_TRUE(viewer->running()) << log();
+  EXPECT_EQ(viewer->stop(10), 0) << log();
 
   std::set<std::string> got;
   for (const auto& e : fs::directory_iterator(every)) got.insert(e.path().filename().string());
@@ -292,27 +258,23 @@ TEST_F(ViewerProcess, ReplaysALogFromLcmLogplayerAndFromFile) {
 
   // lcm-logplayer on the network: the viewer sees it like a live cell.
   const fs::path played = dir_ / "played.png";
-  const pid_t viewer = spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--snapshot", played.string(), "--size",
-                                    "400x300", "--timeout", "30"},
-                                   dir_ / "viewer.log");
-  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !running(viewer); }, 20)) << log();
-  const pid_t player = fork();
-  if (player == 0) {
-    execlp("lcm-logplayer", "lcm-logplayer", lcmlog.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  EXPECT_EQ(waitExit(player, 20), 0);
-  EXPECT_EQ(waitExit(viewer, 20), 0) << log();
+  const auto viewer = spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--snapshot", played.string(), "--size",
+                                   "400x300", "--timeout", "30"},
+                                  dir_ / "viewer.log");
+  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !viewer->running(); }, 20)) << log();
+  testutil::ChildProcess player({"lcm-logplayer", lcmlog.string()});
+  EXPECT_EQ(player.wait(20), 0);
+  EXPECT_EQ(viewer->wait(20), 0) << log();
   expectKnownScene(played, 400, 300);
 
   // The log read directly, no network, as fast as it goes: every 3rd frame, none skipped,
   // and the viewer ends with the log.
   const fs::path frames = dir_ / "frames";
-  const pid_t direct =
+  const auto direct =
       spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--url", "file://" + lcmlog.string() + "?speed=0",
                    "--snapshots", frames.string(), "--every", "3", "--size", "320x240"},
                   dir_ / "viewer.log");
-  EXPECT_EQ(waitExit(direct, 30), 0) << log();
+  EXPECT_EQ(direct->wait(30), 0) << log();
   std::set<std::string> got;
   for (const auto& e : fs::directory_iterator(frames)) got.insert(e.path().filename().string());
   EXPECT_EQ(got, (std::set<std::string>{"points-000000.png", "points-000003.png", "points-000006.png"})) << log();
@@ -320,8 +282,8 @@ TEST_F(ViewerProcess, ReplaysALogFromLcmLogplayerAndFromFile) {
 }
 
 TEST_F(ViewerProcess, LiveWindowWithoutADisplayFailsWithAPlainMessage) {
-  const pid_t pid = spawnViewer({"--config", (dir_ / "cell.yaml").string()}, dir_ / "viewer.log");
-  EXPECT_EQ(waitExit(pid, 10), 1);
+  const auto viewer = spawnViewer({"--config", (dir_ / "cell.yaml").string()}, dir_ / "viewer.log");
+  EXPECT_EQ(viewer->wait(10), 1);
   EXPECT_NE(log().find("no X display"), std::string::npos) << log();
 }
 
@@ -330,10 +292,10 @@ TEST_F(ViewerProcess, LiveWindowWithoutADisplayFailsWithAPlainMessage) {
 TEST_F(ViewerProcess, LiveWindowDrawsWhatItHears) {
   const std::string saved = std::getenv("DISPLAY") ? std::getenv("DISPLAY") : "";
   Xvfb xvfb(800, 600);
-  const pid_t pid = spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--duration", "3", "--size", "640x480"},
-                                dir_ / "viewer.log", xvfb.display());
+  const auto viewer = spawnViewer({"--config", (dir_ / "cell.yaml").string(), "--duration", "3", "--size", "640x480"},
+                                  dir_ / "viewer.log", xvfb.display());
   setenv("DISPLAY", saved.c_str(), 1);
-  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !running(pid); }, 20)) << log();
+  ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !viewer->running(); }, 20)) << log();
   std::int64_t seq = 0;
   auto rendered = [&] {
     for (std::size_t i = 0; i < heartbeat_.stat_names.size(); ++i)
@@ -341,13 +303,13 @@ TEST_F(ViewerProcess, LiveWindowDrawsWhatItHears) {
     return 0.0;
   };
   const double before = rendered();
-  EXPECT_TRUE(spinUntil([&] { return rendered() >= before + 5 || !running(pid); }, 3,
+  EXPECT_TRUE(spinUntil([&] { return rendered() >= before + 5 || !viewer->running(); }, 3,
                         [&] {
                           bus_->publish("POINTS", points(seq, 1000 + seq));
                           bus_->publish("PART_POSE", partPose(1000 + seq));
                           ++seq;
                         }))
       << log();
-  EXPECT_TRUE(running(pid));
-  EXPECT_EQ(waitExit(pid, 10), 0) << log();
+  EXPECT_TRUE(viewer->running());
+  EXPECT_EQ(viewer->wait(10), 0) << log();
 }

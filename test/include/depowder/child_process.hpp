@@ -53,9 +53,24 @@ inline bool inPrivateNetwork(std::string* why = nullptr) {
 /// destroyed.
 class ChildProcess {
  public:
-  /// Starts the executable argv[0] (a path) with the rest as its arguments; its stdout and
-  /// stderr go to `log_path` if not empty.
-  explicit ChildProcess(const std::vector<std::string>& argv, const std::string& log_path = "") {
+  /// Starts the executable argv[0] (a path, or a name looked up in PATH) with the rest as its
+  /// arguments; its stdout and stderr go to `log_path` if not empty. `env` changes this
+  /// process's environment for the child: "NAME=VALUE" sets NAME, "NAME" removes it.
+  explicit ChildProcess(const std::vector<std::string>& argv, const std::string& log_path = "",
+                        const std::vector<std::string>& env = {}) {
+    auto nameOf = [](const std::string& entry) { return entry.substr(0, entry.find('=')); };
+    std::vector<std::string> environment;
+    for (char** e = environ; *e != nullptr; ++e) {
+      bool changed = false;
+      for (const std::string& c : env) changed = changed || nameOf(c) == nameOf(*e);
+      if (!changed) environment.emplace_back(*e);
+    }
+    for (const std::string& c : env)
+      if (c.find('=') != std::string::npos) environment.push_back(c);
+    std::vector<char*> envp;
+    for (std::string& e : environment) envp.push_back(e.data());
+    envp.push_back(nullptr);
+
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     if (!log_path.empty()) {
@@ -65,7 +80,7 @@ class ChildProcess {
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
-    const int rc = posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ);
+    const int rc = posix_spawnp(&pid_, args[0], &actions, nullptr, args.data(), envp.data());
     posix_spawn_file_actions_destroy(&actions);
     if (rc != 0) {
       pid_ = -1;
