@@ -98,9 +98,9 @@ fi
 main_pid=${launcher_pids##* }
 stop_run() { for p in $launcher_pids; do kill -TERM "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
 wait_run() { wait "$main_pid" || true; }  # the monitor ends it when the part is done
-# The wall-clock utime of the sim's fault line (its frames carry the wall clock too).
-sim_fault_utime() { sed -n 's/.*fault at t = .* wall utime \([0-9]*\)).*/\1/p' run_*/sim.log | head -1; }
-sim_fault_over_utime() { sed -n 's/.*fault over at t = .* wall utime \([0-9]*\)).*/\1/p' run_*/sim.log | head -1; }
+# The wall-clock utime of the sim's "fault at" or "fault over at" line (its frames carry the
+# wall clock too).
+sim_utime() { sed -n "s/.*$1 at t = .* wall utime \([0-9]*\)).*/\1/p" run_*/sim.log | head -1; }
 
 until_opt=""
 case $FAULT in
@@ -136,14 +136,14 @@ garbage)
 camera_silent | controller_drop)
   # sim.faults at t = 70 s; 20 s of it, then 10 s more.
   on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
-  while [ -z "$(sim_fault_utime)" ]; do sleep 1; done
-  at=$(sim_fault_utime)
+  while [ -z "$(sim_utime fault)" ]; do sleep 1; done
+  at=$(sim_utime fault)
   if [ "$FAULT" = camera_silent ]; then
     # The silence ends when the sim says so: after a stall the sim catches up, and its 20 s end
     # sooner in wall time than at + 20 s.
-    for _ in $(seq 60); do [ -n "$(sim_fault_over_utime)" ] && break; sleep 1; done
-    [ -n "$(sim_fault_over_utime)" ] || { echo "FAILED: the sim never ended the camera's silence"; exit 1; }
-    until_opt="--until $(sim_fault_over_utime)"
+    for _ in $(seq 60); do [ -n "$(sim_utime "fault over")" ] && break; sleep 1; done
+    [ -n "$(sim_utime "fault over")" ] || { echo "FAILED: the sim never ended the camera's silence"; exit 1; }
+    until_opt="--until $(sim_utime "fault over")"
     sleep 10
   else
     sleep 30

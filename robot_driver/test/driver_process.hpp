@@ -41,9 +41,9 @@ class DriverProcess {
          << robot_yaml;
     arm.T_cell_base = makePoseRpy({-0.55, 0, 0}, 0, 0, 0);
     arm.T_flange_nozzle = makePoseRpy({0, 0, 0.129}, 0, 0, 0);
-    prefix = process_.prefix();
-    process_.start({"--cell", process_.write("cell.yaml", cell.str()), "--url", kUdpmUrl, "--prefix", prefix});
-    bus = std::make_unique<node::Bus>(kUdpmUrl, prefix);
+    process_.start(
+        {"--cell", process_.write("cell.yaml", cell.str()), "--url", kUdpmUrl, "--prefix", process_.prefix()});
+    bus = std::make_unique<node::Bus>(kUdpmUrl, process_.prefix());
   }
   ~DriverProcess() {
     bus.reset();
@@ -89,7 +89,6 @@ class DriverProcess {
   std::unique_ptr<sim::BcapEmulator> emu;
   std::unique_ptr<node::Bus> bus;
   ArmConfig arm;
-  std::string prefix;
 
  private:
   testutil::ProcessUnderTest process_{"depowder-driver"};

@@ -191,27 +191,26 @@ int main(int argc, char** argv) {
         world->removeNozzle();
       if (!state.T_cell_links.empty()) world->setArmLinkPoses(state.T_cell_links);
 
-      // 3a'. Injected faults (sim.faults): a pulled controller cable; silenced cameras below.
+      // 3a'. Injected faults (sim.faults): a pulled controller cable; silenced cameras below. A
+      // silenced camera's end is reported in the same form: a sim catching up after a stall ends
+      // it earlier in wall time than its start + duration (test/faults.sh reads both).
       for (std::size_t i = 0; i < setup.faults.size(); ++i) {
         const SimSetup::Fault& f = setup.faults[i];
-        if (fault_done[i] || t < f.at) continue;
-        fault_done[i] = true;
-        if (f.drop_controller && emulator) emulator->dropConnections();
-        std::cout << "depowder-sim: fault at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
-                  << node::nowUtime() << "): "
-                  << (f.drop_controller
-                          ? std::string("controller connections dropped")
-                          : "camera " + f.silence_camera + " silent for " + std::to_string(f.duration) + " s")
-                  << std::endl;
-      }
-      // A silenced camera's end, in the same form: a sim catching up after a stall ends it
-      // earlier in wall time than its start + duration (test/faults.sh reads both).
-      for (std::size_t i = 0; i < setup.faults.size(); ++i) {
-        const SimSetup::Fault& f = setup.faults[i];
-        if (fault_over[i] || f.silence_camera.empty() || t < f.at + f.duration) continue;
-        fault_over[i] = true;
-        std::cout << "depowder-sim: fault over at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
-                  << node::nowUtime() << "): camera " << f.silence_camera << " publishes again" << std::endl;
+        if (!fault_done[i] && t >= f.at) {
+          fault_done[i] = true;
+          if (f.drop_controller && emulator) emulator->dropConnections();
+          std::cout << "depowder-sim: fault at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
+                    << node::nowUtime() << "): "
+                    << (f.drop_controller
+                            ? std::string("controller connections dropped")
+                            : "camera " + f.silence_camera + " silent for " + std::to_string(f.duration) + " s")
+                    << std::endl;
+        }
+        if (!fault_over[i] && !f.silence_camera.empty() && t >= f.at + f.duration) {
+          fault_over[i] = true;
+          std::cout << "depowder-sim: fault over at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
+                    << node::nowUtime() << "): camera " << f.silence_camera << " publishes again" << std::endl;
+        }
       }
 
       // 3b. Physics of the powder and contacts.

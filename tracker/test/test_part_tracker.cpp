@@ -73,6 +73,18 @@ double worstOver(PartTracker& tracker, const std::vector<Cloud>& frames, Measure
   return worst;
 }
 
+// Tracks the whole sequence from its true start with `c`; counts in `count` the frames whose
+// result has `flag` set and returns the last estimate's rotation error (deg).
+double lastRotErr(const Sequence& s, const TrackerConfig& c, bool TrackResult::*flag, int* count) {
+  PartTracker tracker("part", s.mesh, s.truth[0], 0.01, c);
+  TrackResult r;
+  for (const Cloud& frame : s.frames) {
+    r = tracker.track(frame);
+    *count += r.*flag;
+  }
+  return rotErrDeg(r.T_cell_part, s.truth.back());
+}
+
 class EveryPart : public ::testing::TestWithParam<std::string> {};
 
 // Dug out (100 % visible), pushed 0.5 mm and 0.25 deg a frame, from 3 mm / 2 deg off: every
@@ -218,13 +230,7 @@ TEST(PartTracker, TheCheckRunsEveryFourthFrameWhileAStillPartsFitsAgree) {
   auto run = [&](int check_every, int* checked) {
     TrackerConfig c = defaults();
     c.filter.check_every = check_every;
-    PartTracker tracker("cup", s.mesh, s.truth[0], 0.01, c);
-    TrackResult r;
-    for (const Cloud& frame : s.frames) {
-      r = tracker.track(frame);
-      *checked += r.checked;
-    }
-    return rotErrDeg(r.T_cell_part, s.truth.back());
+    return lastRotErr(s, c, &TrackResult::checked, checked);
   };
   int sparse = 0, every = 0;
   ASSERT_EQ(defaults().filter.check_every, 4);
@@ -294,13 +300,7 @@ TEST(PartTracker, FilterThatHoldsASpunPartStillStartsAgain) {
   auto lastError = [&](int reset_frames, int* resets) {
     TrackerConfig c = defaults();
     c.filter.reset_frames = reset_frames;
-    PartTracker tracker("cup", s.mesh, s.truth[0], 0.01, c);
-    TrackResult r;
-    for (const Cloud& frame : s.frames) {
-      r = tracker.track(frame);
-      *resets += r.reset;
-    }
-    return rotErrDeg(r.T_cell_part, s.truth.back());
+    return lastRotErr(s, c, &TrackResult::reset, resets);
   };
   int resets = 0, none = 0;
   const double with = lastError(defaults().filter.reset_frames, &resets), without = lastError(0, &none);
