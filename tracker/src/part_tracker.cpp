@@ -118,14 +118,15 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
                                 const Matrix6d& prior_information) {
   const FilterConfig& f = config_.filter;
   const StatusConfig& s = config_.status;
-  const Vector6d difference = deviation(free.T_target_source, filtered.T_target_source);
-  fits_disagreed_ =
-      difference.head<3>().norm() * 180 / M_PI > f.reset_deg / 2 || difference.tail<3>().norm() > f.reset_m;
   if (!free.ok() || !isValidPose(free.T_target_source, 1e-6) || free.inlier_ratio < s.tracking_min_inlier_ratio ||
       free.rms > s.tracking_max_rms) {
-    disagreements_.clear();  // a doubtful free fit says nothing, and the mean starts again
+    disagreements_.clear();  // a doubtful free fit says nothing, and the mean starts again...
+    fits_disagreed_ = true;  // ...nor that the fits agree: the next frame is checked too
     return false;
   }
+  const Vector6d difference = deviation(free.T_target_source, filtered.T_target_source);
+  fits_disagreed_ =
+      !(difference.head<3>().norm() * 180 / M_PI <= f.reset_deg / 2 && difference.tail<3>().norm() <= f.reset_m);
   disagreements_.push_back({difference, free.inlier_ratio - filtered.inlier_ratio});
   if (disagreements_.size() > static_cast<std::size_t>(f.reset_frames)) disagreements_.pop_front();
   if (disagreements_.size() < static_cast<std::size_t>(f.reset_frames)) return false;

@@ -127,7 +127,8 @@ class PartTracker {
   };
   std::deque<Disagreement> disagreements_;
   int unchecked_frames_ = 0;    ///< frames since the disagreement check last ran
-  bool fits_disagreed_ = true;  ///< the last check's two fits differed beyond reset_deg / 2 or reset_m
+  bool fits_disagreed_ = true;  ///< the last check's two fits differed beyond reset_deg / 2 or reset_m, or its
+                                ///< free fit was doubtful
   void resetInformation();
   Vector6d processVariance() const;  ///< a pushed part's, per frame (PosePrior's coordinates)
   bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
