@@ -244,6 +244,19 @@ TEST(PartTracker, TheCheckRunsEveryFourthFrameWhileAStillPartsFitsAgree) {
   EXPECT_NEAR(err_sparse, err_every, 0.5);
 }
 
+// A free fit that the status rule doubts says nothing about whether the two fits agree: the
+// check runs again the next frame. With every fit doubted (tracking_min_inlier_ratio 0.99; the
+// fits match 0.7 to 0.9 of the template) a still cup is checked every frame, not every 4th.
+TEST(PartTracker, ADoubtfulFreeFitKeepsTheNextFrameChecked) {
+  const Sequence s = makeSequence("cup", 0.5, 40, 0.0, 0.0, 23);
+  TrackerConfig c = defaults();
+  c.status.tracking_min_inlier_ratio = 0.99;
+  int checked = 0;
+  const double err = lastRotErr(s, c, &TrackResult::checked, &checked);
+  EXPECT_EQ(checked, 40);
+  EXPECT_LT(err, 2.0);
+}
+
 // Tracks `part`, half-buried, pushed sideways 0.67 mm a frame (2 cm/s at 30 fps) for 10 cm with
 // the default settings; `r` is the last frame's result, `truth` the part's pose then.
 void trackPushedTenCm(const std::string& part, unsigned seed, TrackResult& r, Pose& truth) {
