@@ -194,22 +194,22 @@ int main(int argc, char** argv) {
       // 3a'. Injected faults (sim.faults): a pulled controller cable; silenced cameras below. A
       // silenced camera's end is reported in the same form: a sim catching up after a stall ends
       // it earlier in wall time than its start + duration (test/faults.sh reads both).
+      auto announce = [&](const char* event, const std::string& what) {
+        std::cout << "depowder-sim: " << event << " at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
+                  << node::nowUtime() << "): " << what << std::endl;
+      };
       for (std::size_t i = 0; i < setup.faults.size(); ++i) {
         const SimSetup::Fault& f = setup.faults[i];
         if (!fault_done[i] && t >= f.at) {
           fault_done[i] = true;
           if (f.drop_controller && emulator) emulator->dropConnections();
-          std::cout << "depowder-sim: fault at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
-                    << node::nowUtime() << "): "
-                    << (f.drop_controller
-                            ? std::string("controller connections dropped")
-                            : "camera " + f.silence_camera + " silent for " + std::to_string(f.duration) + " s")
-                    << std::endl;
+          announce("fault", f.drop_controller
+                                ? std::string("controller connections dropped")
+                                : "camera " + f.silence_camera + " silent for " + std::to_string(f.duration) + " s");
         }
         if (!fault_over[i] && !f.silence_camera.empty() && t >= f.at + f.duration) {
           fault_over[i] = true;
-          std::cout << "depowder-sim: fault over at t = " << t << " s (utime " << utimeAt(t) << ", wall utime "
-                    << node::nowUtime() << "): camera " << f.silence_camera << " publishes again" << std::endl;
+          announce("fault over", "camera " + f.silence_camera + " publishes again");
         }
       }
 
