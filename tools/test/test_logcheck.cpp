@@ -1,0 +1,134 @@
+// depowder-logcheck compare (the log replay regression's judge) on logs written here: a frame the
+// tracker skipped counts against the coverage, not as a pose at the origin; a wrong pose fails.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include "depowder/child_process.hpp"
+#include "depowder/node/convert.hpp"
+#include "depowder/part_pose_t.hpp"
+#include "depowder/progress_t.hpp"
+
+namespace {
+
+using namespace depowder;
+
+constexpr int kFrames = 50;
+constexpr std::int64_t kUtime0 = 1'000'000;
+
+struct Scratch {
+  std::string dir;
+  Scratch() {
+    char name[] = "/tmp/test_logcheck_XXXXXX";
+    dir = mkdtemp(name);
+  }
+  ~Scratch() { std::system(("rm -rf '" + dir + "'").c_str()); }
+  std::string path(const std::string& file) const { return dir + "/" + file; }
+};
+
+template <class Msg>
+void writeEvent(lcm::LogFile& log, const std::string& channel, const Msg& msg, std::int64_t timestamp) {
+  std::string data(static_cast<std::size_t>(msg.getEncodedSize()), '\0');
+  msg.encode(data.data(), 0, static_cast<int>(data.size()));
+  lcm::LogEvent e;
+  e.eventnum = 0;
+  e.timestamp = timestamp;
+  e.channel = channel;
+  e.datalen = static_cast<int32_t>(data.size());
+  e.data = data.data();
+  log.writeEvent(&e);
+}
+
+// What depowder-tracker and depowder-progress publish for a cube sliding 1 mm a frame: PROGRESS
+// for every frame, PART_POSE for all but `skipped`; frame `off` 5 mm away from the rest's path.
+void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int off = -1) {
+  lcm::LogFile log(path, "w");
+  ASSERT_TRUE(log.good()) << path;
+  for (int f = 0; f < kFrames; ++f) {
+    const std::int64_t utime = kUtime0 + f * 33'333;
+    Pose T = Pose::Identity();
+    T.translation() << 0.001 * f + (f == off ? 0.005 : 0.0), 0.0, 0.05;
+    if (!skipped.count(f)) {
+      part_pose_t pose{};
+      pose.utime = utime;
+      pose.part = "cube";
+      pose.method = "cu";
+      pose.status = part_pose_t::TRACKING;
+      pose.T_cell_part = node::toMsg(T);
+      pose.eta = 0.5;
+      writeEvent(log, "PART_POSE", pose, utime + 5'000);
+    }
+    progress_t progress{};
+    progress.utime = utime;
+    progress.part = "cube";
+    progress.phase = progress_t::PHASE_VACUUM_TRACKED;
+    progress.status = progress_t::OK;
+    progress.eta = 0.5;
+    progress.eta_raw = 0.5;
+    progress.T_cell_part = node::toMsg(T);
+    writeEvent(log, "PROGRESS", progress, utime + 6'000);
+  }
+}
+
+// Runs depowder-logcheck; its exit status, and its output in `out`.
+int logcheck(const std::vector<std::string>& args, const Scratch& s, std::string* out) {
+  std::vector<std::string> argv{std::string(DEPOWDER_BIN_DIR) + "/depowder-logcheck"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  testutil::ChildProcess p(argv, s.path("logcheck.out"));
+  const int status = p.wait(30);
+  std::ifstream in(s.path("logcheck.out"));
+  std::stringstream text;
+  text << in.rdbuf();
+  *out = text.str();
+  return status;
+}
+
+class LogCheck : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    writeOutput(s_.path("golden.lcmlog"));
+    std::string out;
+    ASSERT_EQ(logcheck({"record", s_.path("golden.lcmlog"), s_.path("expected.txt")}, s_, &out), 0) << out;
+  }
+  int compare(const std::string& output, std::string* out) {
+    return logcheck({"compare", output, s_.path("expected.txt")}, s_, out);
+  }
+  Scratch s_;
+};
+
+TEST_F(LogCheck, TheSameOutputMatches) {
+  std::string out;
+  EXPECT_EQ(compare(s_.path("golden.lcmlog"), &out), 0) << out;
+  EXPECT_NE(out.find("matched 50 (100.0 %), without a PART_POSE 0"), std::string::npos) << out;
+}
+
+TEST_F(LogCheck, AFrameTheTrackerSkippedCountsAgainstTheCoverageOnly) {
+  // The tracker skips a frame when a newer one arrives first; PROGRESS still has that frame.
+  // One of 50 skipped is 98 % coverage (the default minimum): a pass, not a pose at the origin.
+  writeOutput(s_.path("one_skipped.lcmlog"), {20});
+  std::string out;
+  EXPECT_EQ(compare(s_.path("one_skipped.lcmlog"), &out), 0) << out;
+  EXPECT_NE(out.find("matched 49 (98.0 %), without a PART_POSE 1"), std::string::npos) << out;
+  EXPECT_NE(out.find("0 frames beyond tolerance"), std::string::npos) << out;
+
+  writeOutput(s_.path("two_skipped.lcmlog"), {20, 30});  // 96 %: below the coverage asked for
+  EXPECT_EQ(compare(s_.path("two_skipped.lcmlog"), &out), 1) << out;
+  EXPECT_NE(out.find("REGRESSION FAILED"), std::string::npos) << out;
+}
+
+TEST_F(LogCheck, APoseBeyondTheToleranceFails) {
+  writeOutput(s_.path("off.lcmlog"), {}, 25);  // 5 mm off in one frame; the tolerance is 2 mm
+  std::string out;
+  EXPECT_EQ(compare(s_.path("off.lcmlog"), &out), 1) << out;
+  EXPECT_NE(out.find("5.00 mm"), std::string::npos) << out;
+  EXPECT_NE(out.find("1 frames beyond tolerance"), std::string::npos) << out;
+}
+
+}  // namespace
