@@ -1,19 +1,16 @@
 // depowder-logcheck compare (the log replay regression's judge) on logs written here: a frame the
 // tracker skipped counts against the coverage, not as a pose at the origin; a wrong pose fails.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <set>
 #include <sstream>
 #include <string>
 
-#include "depowder/child_process.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/part_pose_t.hpp"
+#include "depowder/process_under_test.hpp"
 #include "depowder/progress_t.hpp"
 
 namespace {
@@ -22,16 +19,6 @@ using namespace depowder;
 
 constexpr int kFrames = 50;
 constexpr std::int64_t kUtime0 = 1'000'000;
-
-struct Scratch {
-  std::string dir;
-  Scratch() {
-    char name[] = "/tmp/test_logcheck_XXXXXX";
-    dir = mkdtemp(name);
-  }
-  ~Scratch() { std::system(("rm -rf '" + dir + "'").c_str()); }
-  std::string path(const std::string& file) const { return dir + "/" + file; }
-};
 
 template <class Msg>
 void writeEvent(lcm::LogFile& log, const std::string& channel, const Msg& msg, std::int64_t timestamp) {
@@ -77,56 +64,55 @@ void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int
   }
 }
 
-// Runs depowder-logcheck; its exit status, and its output in `out`.
-int logcheck(const std::vector<std::string>& args, const Scratch& s, std::string* out) {
-  std::vector<std::string> argv{std::string(DEPOWDER_BIN_DIR) + "/depowder-logcheck"};
-  argv.insert(argv.end(), args.begin(), args.end());
-  testutil::ChildProcess p(argv, s.path("logcheck.out"));
-  const int status = p.wait(30);
-  std::ifstream in(s.path("logcheck.out"));
-  std::stringstream text;
-  text << in.rdbuf();
-  *out = text.str();
-  return status;
-}
-
 class LogCheck : public ::testing::Test {
  protected:
   void SetUp() override {
-    writeOutput(s_.path("golden.lcmlog"));
+    writeOutput(path("golden.lcmlog"));
     std::string out;
-    ASSERT_EQ(logcheck({"record", s_.path("golden.lcmlog"), s_.path("expected.txt")}, s_, &out), 0) << out;
+    ASSERT_EQ(run({"record", path("golden.lcmlog"), path("expected.txt")}, &out), 0) << out;
   }
-  int compare(const std::string& output, std::string* out) {
-    return logcheck({"compare", output, s_.path("expected.txt")}, s_, out);
+  std::string path(const std::string& file) const { return logcheck_.dir() + "/" + file; }
+  // Runs depowder-logcheck to its end: its exit status, and what it printed in `out`.
+  int run(const std::vector<std::string>& args, std::string* out) const {
+    std::vector<std::string> argv{logcheck_.exe()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    testutil::ChildProcess p(argv, path("logcheck.out"));
+    const int status = p.wait(30);
+    std::stringstream text;
+    text << std::ifstream(path("logcheck.out")).rdbuf();
+    *out = text.str();
+    return status;
   }
-  Scratch s_;
+  int compare(const std::string& output, std::string* out) const {
+    return run({"compare", output, path("expected.txt")}, out);
+  }
+  testutil::ProcessUnderTest logcheck_{"depowder-logcheck"};  // its executable and a scratch directory
 };
 
 TEST_F(LogCheck, TheSameOutputMatches) {
   std::string out;
-  EXPECT_EQ(compare(s_.path("golden.lcmlog"), &out), 0) << out;
+  EXPECT_EQ(compare(path("golden.lcmlog"), &out), 0) << out;
   EXPECT_NE(out.find("matched 50 (100.0 %), without a PART_POSE 0"), std::string::npos) << out;
 }
 
 TEST_F(LogCheck, AFrameTheTrackerSkippedCountsAgainstTheCoverageOnly) {
   // The tracker skips a frame when a newer one arrives first; PROGRESS still has that frame.
   // One of 50 skipped is 98 % coverage (the default minimum): a pass, not a pose at the origin.
-  writeOutput(s_.path("one_skipped.lcmlog"), {20});
+  writeOutput(path("one_skipped.lcmlog"), {20});
   std::string out;
-  EXPECT_EQ(compare(s_.path("one_skipped.lcmlog"), &out), 0) << out;
+  EXPECT_EQ(compare(path("one_skipped.lcmlog"), &out), 0) << out;
   EXPECT_NE(out.find("matched 49 (98.0 %), without a PART_POSE 1"), std::string::npos) << out;
   EXPECT_NE(out.find("0 frames beyond tolerance"), std::string::npos) << out;
 
-  writeOutput(s_.path("two_skipped.lcmlog"), {20, 30});  // 96 %: below the coverage asked for
-  EXPECT_EQ(compare(s_.path("two_skipped.lcmlog"), &out), 1) << out;
+  writeOutput(path("two_skipped.lcmlog"), {20, 30});  // 96 %: below the coverage asked for
+  EXPECT_EQ(compare(path("two_skipped.lcmlog"), &out), 1) << out;
   EXPECT_NE(out.find("REGRESSION FAILED"), std::string::npos) << out;
 }
 
 TEST_F(LogCheck, APoseBeyondTheToleranceFails) {
-  writeOutput(s_.path("off.lcmlog"), {}, 25);  // 5 mm off in one frame; the tolerance is 2 mm
+  writeOutput(path("off.lcmlog"), {}, 25);  // 5 mm off in one frame; the tolerance is 2 mm
   std::string out;
-  EXPECT_EQ(compare(s_.path("off.lcmlog"), &out), 1) << out;
+  EXPECT_EQ(compare(path("off.lcmlog"), &out), 1) << out;
   EXPECT_NE(out.find("5.00 mm"), std::string::npos) << out;
   EXPECT_NE(out.find("1 frames beyond tolerance"), std::string::npos) << out;
 }
