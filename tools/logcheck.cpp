@@ -127,7 +127,8 @@ int usage(const std::string& error = "") {
                "                 [--truth-rot-deg D] [--truth-eta E] [--min-coverage F] [--prefix P]\n"
                "  record: writes the PART_POSE/PROGRESS of OUTPUT as the expected output.\n"
                "  compare: every expected frame must be in OUTPUT (at least --min-coverage of them, default\n"
-               "  0.98) within --tol-* (defaults 2 mm, 0.5 deg, 0.02) of the expected output, and, with\n"
+               "  0.98; a frame with PROGRESS but no PART_POSE, which the tracker skipped, is not there)\n"
+               "  within --tol-* (defaults 2 mm, 0.5 deg, 0.02) of the expected output, and, with\n"
                "  --truth, tracked frames within --truth-* (defaults 1 cm, 5 deg, 0.10) of SIM_TRUTH.\n"
                "  Prints the worst deviations; exits 1 if any tolerance is exceeded.\n";
   return error.empty() ? 0 : 2;
