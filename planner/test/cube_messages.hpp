@@ -10,6 +10,7 @@
 #include "depowder/part_pose_t.hpp"
 #include "depowder/parts.hpp"
 #include "depowder/progress_t.hpp"
+#include "depowder/test_messages.hpp"
 #include "fixtures.hpp"
 
 namespace depowder::planner::test {
@@ -22,16 +23,7 @@ inline std::string cubeCellYaml(const std::string& planner_section = "planner: {
          planner_section;
 }
 
-inline part_pose_t cubePose(std::int64_t utime, const Pose& T) {
-  part_pose_t m{};
-  m.utime = utime;
-  m.part = "cube";
-  m.method = "cu";
-  m.status = part_pose_t::TRACKING;
-  m.T_cell_part = node::toMsg(T);
-  m.template_size = 0;
-  return m;
-}
+inline part_pose_t cubePose(std::int64_t utime, const Pose& T) { return testutil::trackingPose("cube", utime, T); }
 
 /// The powder surface at height `powder`, eta 0.5, in the second vacuum phase.
 inline progress_t cubeProgress(std::int64_t utime, const Pose& T, double powder) {

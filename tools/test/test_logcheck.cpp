@@ -12,6 +12,7 @@
 #include "depowder/part_pose_t.hpp"
 #include "depowder/process_under_test.hpp"
 #include "depowder/progress_t.hpp"
+#include "depowder/test_messages.hpp"
 
 namespace {
 
@@ -43,12 +44,7 @@ void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int
     Pose T = Pose::Identity();
     T.translation() << 0.001 * f + (f == off ? 0.005 : 0.0), 0.0, 0.05;
     if (!skipped.count(f)) {
-      part_pose_t pose{};
-      pose.utime = utime;
-      pose.part = "cube";
-      pose.method = "cu";
-      pose.status = part_pose_t::TRACKING;
-      pose.T_cell_part = node::toMsg(T);
+      part_pose_t pose = testutil::trackingPose("cube", utime, T);
       pose.eta = 0.5;
       writeEvent(log, "PART_POSE", pose, utime + 5'000);
     }

@@ -22,6 +22,7 @@
 #include "depowder/part_pose_t.hpp"
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/progress_t.hpp"
+#include "depowder/test_messages.hpp"
 #include "depowder/viewer/display.hpp"
 #include "depowder/viewer/renderer.hpp"
 #include "picture_checks.hpp"
@@ -59,12 +60,7 @@ const Pose kEstimate = makePoseRpy({-0.05, 0.01, 0.06}, 0, 0, 0.4);
 
 /// The cube at kEstimate with its top face as the template (0.5 mm counts).
 part_pose_t partPose(std::int64_t utime) {
-  part_pose_t m{};
-  m.utime = utime;
-  m.part = "cube";
-  m.method = "cu";
-  m.status = part_pose_t::TRACKING;
-  m.T_cell_part = node::toMsg(kEstimate);
+  part_pose_t m = testutil::trackingPose("cube", utime, kEstimate);
   m.template_updated = true;
   m.template_version = 1;
   m.template_resolution = 0.0005f;
