@@ -27,21 +27,13 @@ inline part_pose_t cubePose(std::int64_t utime, const Pose& T) { return testutil
 
 /// The powder surface at height `powder`, eta 0.5, in the second vacuum phase.
 inline progress_t cubeProgress(std::int64_t utime, const Pose& T, double powder) {
-  progress_t m{};
-  m.utime = utime;
-  m.part = "cube";
-  m.phase = progress_t::PHASE_VACUUM_TRACKED;
-  m.status = progress_t::OK;
-  m.eta = 0.5;
-  m.eta_raw = 0.5;
+  progress_t m = testutil::vacuumProgress("cube", utime, T, 0.5);
   m.h_pow = powder;
   m.h_max = T.translation().z() + 0.03;
   m.h_min = T.translation().z() - 0.03;
-  m.T_cell_part = node::toMsg(T);
   for (const Point& p : syntheticContour(transformed(parts::byName("cube"), T), powder))
     m.contour.push_back({static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())});
   m.num_contour = static_cast<std::int32_t>(m.contour.size());
-  m.num_band = 0;
   return m;
 }
 

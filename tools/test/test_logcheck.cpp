@@ -8,7 +8,6 @@
 #include <sstream>
 #include <string>
 
-#include "depowder/node/convert.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/process_under_test.hpp"
 #include "depowder/progress_t.hpp"
@@ -48,15 +47,7 @@ void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int
       pose.eta = 0.5;
       writeEvent(log, "PART_POSE", pose, utime + 5'000);
     }
-    progress_t progress{};
-    progress.utime = utime;
-    progress.part = "cube";
-    progress.phase = progress_t::PHASE_VACUUM_TRACKED;
-    progress.status = progress_t::OK;
-    progress.eta = 0.5;
-    progress.eta_raw = 0.5;
-    progress.T_cell_part = node::toMsg(T);
-    writeEvent(log, "PROGRESS", progress, utime + 6'000);
+    writeEvent(log, "PROGRESS", testutil::vacuumProgress("cube", utime, T, 0.5), utime + 6'000);
   }
 }
 
