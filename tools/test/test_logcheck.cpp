@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <lcm/lcm-cpp.hpp>
 #include <set>
 #include <sstream>
 #include <string>
@@ -20,19 +19,6 @@ using namespace depowder;
 constexpr int kFrames = 50;
 constexpr std::int64_t kUtime0 = 1'000'000;
 
-template <class Msg>
-void writeEvent(lcm::LogFile& log, const std::string& channel, const Msg& msg, std::int64_t timestamp) {
-  std::string data(static_cast<std::size_t>(msg.getEncodedSize()), '\0');
-  msg.encode(data.data(), 0, static_cast<int>(data.size()));
-  lcm::LogEvent e;
-  e.eventnum = 0;
-  e.timestamp = timestamp;
-  e.channel = channel;
-  e.datalen = static_cast<int32_t>(data.size());
-  e.data = data.data();
-  log.writeEvent(&e);
-}
-
 // What depowder-tracker and depowder-progress publish for a cube sliding 1 mm a frame: PROGRESS
 // for every frame, PART_POSE for all but `skipped`; frame `off` 5 mm away from the rest's path.
 void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int off = -1) {
@@ -45,9 +31,10 @@ void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int
     if (!skipped.count(f)) {
       part_pose_t pose = testutil::trackingPose("cube", utime, T);
       pose.eta = 0.5;
-      writeEvent(log, "PART_POSE", pose, utime + 5'000);
+      ASSERT_EQ(testutil::writeMessage(log, "PART_POSE", pose, utime + 5'000), 0);
     }
-    writeEvent(log, "PROGRESS", testutil::vacuumProgress("cube", utime, T, 0.5), utime + 6'000);
+    ASSERT_EQ(testutil::writeMessage(log, "PROGRESS", testutil::vacuumProgress("cube", utime, T, 0.5), utime + 6'000),
+              0);
   }
 }
 

@@ -235,10 +235,7 @@ TEST_F(ViewerProcess, ReplaysALogFromLcmLogplayerAndFromFile) {
     ASSERT_TRUE(log.good());
     std::int64_t t = node::nowUtime();
     auto put = [&](const std::string& ch, const auto& msg) {
-      std::vector<std::uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
-      msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      lcm::LogEvent ev{0, t += 20000, ch, static_cast<std::int32_t>(buf.size()), buf.data()};
-      ASSERT_EQ(log.writeEvent(&ev), 0);
+      ASSERT_EQ(testutil::writeMessage(log, ch, msg, t += 20000), 0);
     };
     std::mt19937 rng(3);
     std::vector<std::uint8_t> junk(333);

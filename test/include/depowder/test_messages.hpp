@@ -1,8 +1,11 @@
-// Messages the process and tool tests send or record as a cell process would.
+// Messages the process and tool tests send or record as a cell process would, and writing one to
+// an LCM log as lcm-logger would.
 #pragma once
 
 #include <cstdint>
+#include <lcm/lcm-cpp.hpp>
 #include <string>
+#include <vector>
 
 #include "depowder/geometry.hpp"
 #include "depowder/node/convert.hpp"
@@ -36,6 +39,15 @@ inline progress_t vacuumProgress(const std::string& part, std::int64_t utime, co
   m.T_cell_part = node::toMsg(T_cell_part);
   m.num_contour = m.num_band = 0;
   return m;
+}
+
+/// Appends `msg` on `channel` to `log` at `timestamp` (utime); LogFile::writeEvent's result (0: written).
+template <class Msg>
+int writeMessage(lcm::LogFile& log, const std::string& channel, const Msg& msg, std::int64_t timestamp) {
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(msg.getEncodedSize()));
+  msg.encode(data.data(), 0, static_cast<int>(data.size()));
+  lcm::LogEvent e{0, timestamp, channel, static_cast<std::int32_t>(data.size()), data.data()};
+  return log.writeEvent(&e);
 }
 
 }  // namespace depowder::testutil
