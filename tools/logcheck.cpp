@@ -83,17 +83,21 @@ Truth readTruth(const std::string& path, const std::string& prefix) {
   return truth;
 }
 
-void writeExpected(const Frames& frames, const std::string& path) {
+std::size_t writeExpected(const Frames& frames, const std::string& path) {  // the frames written
   std::ofstream out(path);
   if (!out) throw std::runtime_error("cannot write '" + path + "'");
   out << "# utime part x y z qw qx qy qz status eta phase  (depowder-logcheck expected output)\n";
   out.precision(9);
+  std::size_t written = 0;
   for (const auto& [key, r] : frames) {
+    if (r.status < 0) continue;  // PROGRESS without a PART_POSE (a skipped frame): no pose to expect
     const Eigen::Quaterniond q(r.T.linear());
     const Eigen::Vector3d t = r.T.translation();
     out << key.first << " " << key.second << " " << t.x() << " " << t.y() << " " << t.z() << " " << q.w() << " "
         << q.x() << " " << q.y() << " " << q.z() << " " << r.status << " " << r.eta << " " << r.phase << "\n";
+    ++written;
   }
+  return written;
 }
 
 Frames readExpected(const std::string& path) {
@@ -125,7 +129,8 @@ int usage(const std::string& error = "") {
                "       depowder-logcheck compare OUTPUT.lcmlog EXPECTED.txt [--truth GOLDEN.lcmlog]\n"
                "                 [--tol-trans M] [--tol-rot-deg D] [--tol-eta E] [--truth-trans M]\n"
                "                 [--truth-rot-deg D] [--truth-eta E] [--min-coverage F] [--prefix P]\n"
-               "  record: writes the PART_POSE/PROGRESS of OUTPUT as the expected output.\n"
+               "  record: writes the PART_POSE/PROGRESS of OUTPUT as the expected output (the frames with\n"
+               "  a PART_POSE).\n"
                "  compare: every expected frame must be in OUTPUT (at least --min-coverage of them, default\n"
                "  0.98; a frame with PROGRESS but no PART_POSE, which the tracker skipped, is not there)\n"
                "  within --tol-* (defaults 2 mm, 0.5 deg, 0.02) of the expected output, and, with\n"
@@ -170,9 +175,9 @@ int main(int argc, char** argv) {
   try {
     const Frames got = readOutputs(output, prefix);
     if (mode == "record") {
-      writeExpected(got, expected_file);
-      std::cout << "wrote " << got.size() << " part-frames to " << expected_file << "\n";
-      return got.empty() ? 1 : 0;
+      const std::size_t written = writeExpected(got, expected_file);
+      std::cout << "wrote " << written << " part-frames to " << expected_file << "\n";
+      return written == 0 ? 1 : 0;
     }
     if (mode != "compare") return usage("unknown mode '" + mode + "'");
     const Frames want = readExpected(expected_file);
