@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace depowder::perception {
 
@@ -102,6 +103,13 @@ std::string usage() {
          "  --verbose            print every rejected frame (default: at most one line a second per reason)\n";
 }
 
+CameraNodeOptions readCameraOptions(node::CellConfig cell) {
+  CameraNodeOptions o(std::move(cell));
+  o.files.camera.name = "FILES";
+  readSection(o.cell.root.child("perception"), o);
+  return o;
+}
+
 std::optional<CameraNodeOptions> parseOptions(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   std::string cell_path = node::defaultCellPath();
@@ -109,9 +117,7 @@ std::optional<CameraNodeOptions> parseOptions(int argc, char** argv) {
     if (args[i] == "--help" || args[i] == "-h") return std::nullopt;
     if (args[i] == "--cell" && i + 1 < args.size()) cell_path = args[i + 1];
   }
-  CameraNodeOptions o(node::loadCell(cell_path));
-  o.files.camera.name = "FILES";
-  readSection(o.cell.root.child("perception"), o);
+  CameraNodeOptions o = readCameraOptions(node::loadCell(cell_path));
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&]() -> const std::string& {

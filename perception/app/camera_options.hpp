@@ -34,6 +34,10 @@ struct CameraNodeOptions {
   bool verbose = false;
 };
 
+/// The cell's `perception` section alone (no command line); throws node::ConfigError naming the
+/// file, key and range. depowder-eval takes its camera-proxy settings from here too.
+CameraNodeOptions readCameraOptions(node::CellConfig cell);
+
 /// Parses argv (see usage()); throws node::ConfigError (bad YAML) or std::invalid_argument
 /// (bad command line) with a message naming what is wrong. Returns nullopt for --help.
 std::optional<CameraNodeOptions> parseOptions(int argc, char** argv);

@@ -15,10 +15,8 @@
 
 #include "depowder/eval/experiment.hpp"
 #include "depowder/eval/report.hpp"
-#include "depowder/node/cell.hpp"
 #include "depowder/node/shutdown.hpp"
 #include "depowder/parts.hpp"
-#include "setup.hpp"
 #include "terminal.hpp"
 
 using namespace depowder;
@@ -49,7 +47,8 @@ const char* kUsage =
     "  --seed S               (default 1)\n"
     "  --visibilities LIST    e.g. 0.2,0.4,0.6,0.8,1.0 (the default)\n"
     "  --duration S           static: seconds of frames per trial (default 2.5)\n"
-    "  --cell FILE            box and cameras from this cell file (default config/cell.yaml)\n"
+    "  --cell FILE            the cell file's box and cameras, and its sim, perception and tracker settings\n"
+    "                         (default config/cell.yaml); the tracker's eta1 is 0: ICP at every visibility\n"
     "  --json FILE            write the results as JSON\n"
     "  --trace FILE           static, moving: every tracked frame of every method as CSV (error in the part frame)\n"
     "  --out DIR              report: where results.md and the PNGs go (default docs)\n"
@@ -198,20 +197,6 @@ Args parse(int argc, char** argv) {
   if (!a.mesh.empty() && a.xi <= 0) throw std::invalid_argument("--mesh needs --xi (m)");
   if (a.mesh.empty() && a.xi > 0 && a.parts.empty()) throw std::invalid_argument("--xi goes with --mesh");
   return a;
-}
-
-EvalCell loadEvalCell(const std::string& path) {
-  const node::CellConfig cell = node::loadCell(path.empty() ? node::defaultCellPath() : path);
-  EvalCell out;
-  out.box.size = cell.box.size;
-  out.box.wall = cell.box.wall;
-  for (const node::CameraConfig& c : cell.cameras) {
-    out.cameras.push_back(sim::cameraModelOf(c));
-  }
-  if (out.cameras.empty()) throw std::invalid_argument(cell.file + ": no cameras");
-  out.tracker = baseTrackerConfig();
-  if (!out.cameras.empty()) out.fps = out.cameras.front().rate_hz;
-  return out;
 }
 
 std::vector<EvalPart> partsOf(const Args& a) {

@@ -16,6 +16,7 @@
 
 #include "depowder/eval/experiment.hpp"
 #include "depowder/eval/report.hpp"
+#include "depowder/node/yaml.hpp"
 #include "depowder/parts.hpp"
 
 using namespace depowder;
@@ -349,6 +350,56 @@ TEST(EvalReport, TablesCarryOursAndThePapers) {
   EXPECT_TRUE(std::isnan(paperRotErrDeg("cu", "cube", 0.5)));
 }
 
+// The default cell's text with `from` replaced by `to` (each must occur once), its part mesh
+// given by absolute path, written where a test may write.
+std::string cellVariant(const std::string& name, const std::string& from, const std::string& to) {
+  const std::string src = DEPOWDER_SOURCE_DIR;
+  std::ifstream in(src + "/config/cell.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto replace = [&](const std::string& a, const std::string& b) {
+    const std::size_t at = text.find(a);
+    EXPECT_NE(at, std::string::npos) << a;
+    EXPECT_EQ(text.find(a, at + 1), std::string::npos) << a;
+    if (at != std::string::npos) text.replace(at, a.size(), b);
+  };
+  replace("mesh: parts/pipe.stl", "mesh: " + src + "/config/parts/pipe.stl");
+  if (!from.empty()) replace(from, to);
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(EvalCell, TakesTheCellFilesSimPerceptionAndTrackerSections) {
+  const EvalCell def = loadEvalCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/cell.yaml");
+  ASSERT_EQ(def.cameras.size(), 2u);
+  EXPECT_EQ(def.cameras[0].name, "LEFT");
+  EXPECT_DOUBLE_EQ(def.box.size.x(), 0.40);
+  EXPECT_DOUBLE_EQ(def.sim.nozzle.length, 0.25);  // the cell's tube (sim.nozzle), not the library's 13 cm
+  EXPECT_FALSE(def.sim.physics.enabled);          // the cell's is on; moving turns it on itself
+  EXPECT_DOUBLE_EQ(def.perception.voxel_leaf, perception::PerceptionConfig{}.voxel_leaf);
+  EXPECT_EQ(def.tracker.eta1, 0.0);  // ICP at every visibility, as baseTrackerConfig
+  EXPECT_DOUBLE_EQ(def.tracker.filter.data_inflation, tracker::TrackerConfig{}.filter.data_inflation);
+  EXPECT_TRUE(def.tracker.viewpoints.empty());  // evalTrackerConfig sets the cameras
+
+  const EvalCell leaf = loadEvalCell(cellVariant("eval_leaf.yaml", "  voxel_leaf: 0.005", "  voxel_leaf: 0.003"));
+  EXPECT_DOUBLE_EQ(leaf.perception.voxel_leaf, 0.003);
+  const EvalCell tangent =
+      loadEvalCell(cellVariant("eval_tangent.yaml", "    tangent_weight: 0.3", "    tangent_weight: 0.5"));
+  EXPECT_DOUBLE_EQ(tangent.tracker.icp.tangent_weight, 0.5);
+  EXPECT_DOUBLE_EQ(evalTrackerConfig(tracker::Method::kCu, tangent).icp.tangent_weight, 0.5);
+  const std::string tube = "    length: 0.25             # m, = robot.tool_offset z (the tube";
+  const EvalCell longer = loadEvalCell(cellVariant("eval_tube.yaml", tube, "    length: 0.3 # (the tube"));
+  EXPECT_DOUBLE_EQ(longer.sim.nozzle.length, 0.3);
+
+  // A misspelt key is named, as the processes name it.
+  try {
+    loadEvalCell(cellVariant("eval_typo.yaml", "    tangent_weight: 0.3", "    tangent_wieght: 0.3"));
+    ADD_FAILURE() << "a misspelt tracker key was accepted";
+  } catch (const node::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("tangent_wieght"), std::string::npos) << e.what();
+  }
+}
+
 TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   const std::string bin = std::string(DEPOWDER_BIN_DIR) + "/depowder-eval";
   const std::string json = ::testing::TempDir() + "eval_cli.json";
@@ -364,7 +415,8 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   for (const std::string bad :
        {" static --methods icp", " static --part teapot", " static --trials 0", " static --mesh x.stl",
         " static --set icp.nothing=1", " frobnicate", " speed --trace /dev/null", " speed --self-filter",
-        " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0"}) {
+        " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0",
+        " static --cell no-such-cell.yaml"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }
