@@ -292,6 +292,30 @@ CameraModel cameraModelOf(const node::CameraConfig& c) {
   return m;
 }
 
+namespace {
+
+// What a cell file gives the simulator besides its sim section: LCM, box, cameras, parts.
+SimSetup cellSetup(const node::CellConfig& cell) {
+  SimSetup out;
+  out.cell_file = cell.file;
+  out.lcm = cell.lcm;
+  out.box.size = cell.box.size;
+  out.box.wall = cell.box.wall;
+  for (const auto& c : cell.cameras) out.cameras.push_back(cameraModelOf(c));
+  for (const auto& p : cell.parts)
+    out.parts.push_back({p.name, loadMesh(p.mesh, p.mesh_scale), p.T_cell_part_init, p.density});
+  return out;
+}
+
+}  // namespace
+
+SimSetup simSetupOf(const node::CellConfig& cell) {
+  SimSetup out = cellSetup(cell);
+  out.sim_file = cell.file;
+  readSimSection(cell.root.child("sim"), out);
+  return out;
+}
+
 SimSetup loadSimSetup(const std::string& cell_path, const std::string& scenario_path) {
   std::string cell_file = cell_path;
   std::unique_ptr<YamlReader> overlay;
@@ -303,22 +327,11 @@ SimSetup loadSimSetup(const std::string& cell_path, const std::string& scenario_
       cell_file = scenario_path;
   }
   const node::CellConfig cell = node::loadCell(cell_file);
-  SimSetup out;
-  out.cell_file = cell.file;
-  out.lcm = cell.lcm;
-  out.box.size = cell.box.size;
-  out.box.wall = cell.box.wall;
-  for (const auto& c : cell.cameras) out.cameras.push_back(cameraModelOf(c));
-  for (const auto& p : cell.parts)
-    out.parts.push_back({p.name, loadMesh(p.mesh, p.mesh_scale), p.T_cell_part_init, p.density});
-  if (overlay) {
-    out.sim_file = scenario_path;
-    readSimSection(overlay->child("sim", true), out);
-    overlay->finish();
-  } else {
-    out.sim_file = cell.file;
-    readSimSection(cell.root.child("sim"), out);
-  }
+  if (!overlay) return simSetupOf(cell);
+  SimSetup out = cellSetup(cell);
+  out.sim_file = scenario_path;
+  readSimSection(overlay->child("sim", true), out);
+  overlay->finish();
   return out;
 }
 

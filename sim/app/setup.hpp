@@ -62,6 +62,10 @@ struct SimSetup {
 /// The simulated camera of a cell camera: the same intrinsics, range, rate and noise.
 CameraModel cameraModelOf(const node::CameraConfig& c);
 
+/// The setup of an already loaded cell file, its own sim section included (as loadSimSetup without
+/// a scenario). Loads the part meshes; throws node::ConfigError or MeshError.
+SimSetup simSetupOf(const node::CellConfig& cell);
+
 /// Reads `cell_path`; `scenario_path` (optional) is either a full cell file used instead, or a file
 /// holding only a `sim:` section that replaces the cell's. Loads the part meshes. Throws
 /// node::ConfigError (file, key, range) or MeshError (file).

@@ -10,9 +10,9 @@
 namespace depowder::eval {
 
 EvalCell loadEvalCell(const std::string& path) {
-  const std::string file = path.empty() ? node::defaultCellPath() : path;
+  const node::CellConfig cell = node::loadCell(path.empty() ? node::defaultCellPath() : path);
   // depowder-sim's box, cameras and sim section (powder, tools, physics, camera noise).
-  const sim::SimSetup setup = sim::loadSimSetup(file);
+  const sim::SimSetup setup = sim::simSetupOf(cell);
   EvalCell out;
   out.box = setup.box;
   out.cameras = setup.cameras;
@@ -23,7 +23,6 @@ EvalCell loadEvalCell(const std::string& path) {
   out.sim.physics.enabled = false;
   out.step_hz = setup.step_hz;
   out.fps = out.cameras.front().rate_hz;
-  const node::CellConfig cell = node::loadCell(file);
   // depowder-camera's perception section (crop, voxel leaf, outlier filter, merger).
   out.perception = perception::readCameraOptions(cell).perception;
   // depowder-tracker's tracker section (with the progress section's Eq. 2 settings), but ICP at

@@ -31,10 +31,10 @@ struct EvalCell {
 
 /// The cell of a cell file (empty: node::defaultCellPath()) as its processes would run it: box,
 /// cameras and the sim section as depowder-sim reads them (physics off: runMoving turns it on),
-/// the perception section as
-/// depowder-camera does, the tracker section (and progress's Eq. 2 settings) as depowder-tracker
-/// does, with eta1 = 0 (baseTrackerConfig). Throws node::ConfigError naming file, key and range,
-/// or MeshError for a part mesh of the file that cannot be read.
+/// the perception section as depowder-camera does, the tracker section (and progress's Eq. 2
+/// settings) as depowder-tracker does, with eta1 = 0 (baseTrackerConfig). Throws
+/// node::ConfigError naming file, key and range, or MeshError for a part mesh of the file that
+/// cannot be read.
 EvalCell loadEvalCell(const std::string& path);
 
 struct EvalPart {
