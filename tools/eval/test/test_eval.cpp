@@ -350,6 +350,15 @@ TEST(EvalReport, TablesCarryOursAndThePapers) {
   EXPECT_TRUE(std::isnan(paperRotErrDeg("cu", "cube", 0.5)));
 }
 
+// The report's "Reproduce with" line keeps what decides the figures, not where a run wrote them.
+TEST(EvalReport, ReproduceCommandDropsOutputFlags) {
+  EXPECT_EQ(reproduceCommand("depowder-eval report --trials 10 --json out/r.json --seed 1 --out out --notes n.md --quiet"),
+            "depowder-eval report --trials 10 --seed 1");
+  EXPECT_EQ(reproduceCommand("depowder-eval report --from r.json --out docs"), "depowder-eval report");
+  EXPECT_EQ(reproduceCommand("depowder-eval moving --set filter.q_yaw_deg=1 --cell c.yaml"),
+            "depowder-eval moving --set filter.q_yaw_deg=1 --cell c.yaml");
+}
+
 // The default cell's text with `from` replaced by `to` (each must occur once), its part mesh
 // given by absolute path, written where a test may write.
 std::string cellVariant(const std::string& name, const std::string& from, const std::string& to) {

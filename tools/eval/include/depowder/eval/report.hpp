@@ -25,6 +25,10 @@ double paperTransErrCm(const std::string& method, const std::string& part, doubl
 /// The paper's Table II success rate (%), NaN if unknown.
 double paperSuccessPercent(const std::string& method, const std::string& part);
 
+/// `command` without the flags that only say where output goes (--json, --out, --notes, --from
+/// and their values, --quiet): what reproduces the figures, with the report written to docs/.
+std::string reproduceCommand(const std::string& command);
+
 /// The whole results.md text; `images` are the PNG names (relative to results.md) to show.
 std::string reportMarkdown(const ReportInputs& in, const std::vector<std::string>& images);
 
