@@ -60,6 +60,8 @@ const char* kUsage =
     "  --probe N              moving: every N frames, a tracker without the filter started at the true pose fits\n"
     "                         that frame's scan 4 times; how far it ends from the truth shows how well the scan\n"
     "                         alone pins the part (printed, and probe_* in the JSON)\n"
+    "  --push-offset F        moving, report: the push line passes the part's centre sideways by up to F x its\n"
+    "                         xy diagonal (seeded; default 0.25): larger turns the part more\n"
     "  --set KEY=VALUE        a tracker setting for every method (e.g. filter.data_inflation=0); repeatable\n"
     "  --quiet                no progress bar\n";
 
@@ -99,6 +101,7 @@ struct Args {
   double duration = 0;
   bool quiet = false, no_nozzle = false, self_filter = false;
   int probe = 0;                                     ///< moving: --probe N
+  double push_offset = -1;                           ///< moving: --push-offset F (< 0: the default)
   std::vector<std::pair<std::string, double>> sets;  ///< --set key=value
   std::string command_line;                          ///< as typed, for the report
 };
@@ -152,6 +155,10 @@ Args parse(int argc, char** argv) {
       if (!(n >= 1 && n <= 10000 && n == std::floor(n)))
         throw std::invalid_argument("--probe must be an integer 1..10000 (frames)");
       a.probe = static_cast<int>(n);
+    } else if (f == "--push-offset") {
+      a.push_offset = number(f, v);
+      if (!(a.push_offset >= 0 && a.push_offset <= 0.5))
+        throw std::invalid_argument("--push-offset must be in [0, 0.5] (a fraction of the part's xy diagonal)");
     } else if (f == "--seed") {
       const double s = number(f, v);
       if (!(s >= 0 && s <= 4294967295.0 && s == std::floor(s)))
@@ -193,6 +200,8 @@ Args parse(int argc, char** argv) {
   if (!a.mesh.empty() && !a.parts.empty()) throw std::invalid_argument("give --part or --mesh, not both");
   if (a.self_filter && a.command == "speed") throw std::invalid_argument("--self-filter: speed has no nozzle");
   if (a.probe > 0 && a.command != "moving") throw std::invalid_argument("--probe is for moving");
+  if (a.push_offset >= 0 && a.command != "moving" && a.command != "report")
+    throw std::invalid_argument("--push-offset is for moving and report");
   if (a.self_filter && a.no_nozzle) throw std::invalid_argument("--self-filter needs the nozzle (not --no-nozzle)");
   if (!a.mesh.empty() && a.xi <= 0) throw std::invalid_argument("--mesh needs --xi (m)");
   if (a.mesh.empty() && a.xi > 0 && a.parts.empty()) throw std::invalid_argument("--xi goes with --mesh");
@@ -259,6 +268,7 @@ MovingOptions movingOptions(const Args& a, int trials) {
   if (trials > 0) o.trials = trials;
   o.self_filter = a.self_filter;
   o.probe_every = a.probe;
+  if (a.push_offset >= 0) o.max_offset_fraction = a.push_offset;
   o.seed = a.seed;
   return o;
 }
@@ -275,10 +285,11 @@ void printMoving(const MovingResult& r) {
     for (std::size_t i = 0; i < row.trial_success.size(); ++i)
       if (!row.trial_success[i])
         std::printf(
-            "failed %s %s trial %zu: moved %.1f cm, turned %.0f deg, tipped %.0f deg (%s); final %.1f deg / %.2f cm\n",
+            "failed %s %s trial %zu: moved %.1f cm, turned %.0f deg, tipped %.0f deg (%s), visibility %.0f %% at "
+            "its lowest; final %.1f deg / %.2f cm\n",
             row.part.c_str(), row.method.c_str(), i, row.trial_moved_cm[i], row.trial_turned_deg[i],
-            row.trial_tilt_deg[i], row.trial_outcome[i].c_str(), row.trial_final_rot_err_deg[i],
-            row.trial_final_trans_err_cm[i]);
+            row.trial_tilt_deg[i], row.trial_outcome[i].c_str(), 100 * row.trial_min_visibility[i],
+            row.trial_final_rot_err_deg[i], row.trial_final_trans_err_cm[i]);
   for (const MovingRow& row : r.rows)
     if (!row.probe_rot_err_deg.empty())
       std::printf("probe %-10s %-11s %4zu fits from the truth: %.2f deg (p90 %.2f), %.3f cm\n", row.part.c_str(),

@@ -95,6 +95,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       std::vector<Pose> last(methods.size(), T0);
       FrameSource source(cell);
       bool cut = false;
+      double min_eta = eta0;
       int f = 0;
       for (; f < max_frames && push.phase() != sim::PushPhase::kDone; ++f) {
         if (control.stopped()) {
@@ -111,7 +112,8 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         });
         const bool filtered = o.self_filter && arm.nozzle_present;
         const Cloud scan = source.capture(world, filtered ? &arm.T_cell_nozzle : nullptr);
-        const sim::PartTruth truth = control.trace ? world.partTruth(0) : sim::PartTruth{};
+        const sim::PartTruth truth = world.partTruth(0);
+        min_eta = std::min(min_eta, truth.eta);
         for (std::size_t m = 0; m < methods.size(); ++m) {
           const tracker::TrackResult tr = trackers[m].track(scan);
           last[m] = tr.T_cell_part;
@@ -158,6 +160,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         row.trial_turned_deg.push_back(moved.rot_deg);
         row.trial_tilt_deg.push_back(tilt);
         row.trial_outcome.push_back(sim::toString(push.outcome()));
+        row.trial_min_visibility.push_back(min_eta);
       }
     }
     if (trials_done == 0) return result;
@@ -196,6 +199,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   opt.set("probe_every", o.probe_every);
   opt.set("probe_fits", o.probe_fits);
   opt.set("contact_band", o.contact_band);
+  opt.set("max_offset_fraction", o.max_offset_fraction);
   opt.set("success_rot_deg", o.success_rot_deg);
   opt.set("success_trans_m", o.success_trans);
   opt.set("eta1", 0.0);
@@ -220,6 +224,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
     j.set("trial_turned_deg", Json::arrayOf(r.trial_turned_deg));
     j.set("trial_tilt_deg", Json::arrayOf(r.trial_tilt_deg));
     j.set("trial_outcome", Json::arrayOf(r.trial_outcome));
+    j.set("trial_min_visibility", Json::arrayOf(r.trial_min_visibility));
     if (o.probe_every > 0) {
       j.set("probes", static_cast<double>(r.probe_rot_err_deg.size()));
       j.set("probe_rot_err_deg_mean", r.probe_rot_mean_deg);

@@ -425,7 +425,7 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
        {" static --methods icp", " static --part teapot", " static --trials 0", " static --mesh x.stl",
         " static --set icp.nothing=1", " frobnicate", " speed --trace /dev/null", " speed --self-filter",
         " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0",
-        " static --cell no-such-cell.yaml"}) {
+        " static --push-offset 0.1", " moving --push-offset 0.9", " static --cell no-such-cell.yaml"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }
@@ -444,6 +444,7 @@ TEST(EvalMoving, ShortPushShapeAndBounds) {
   ASSERT_EQ(r.rows.size(), 3u);
   const Json doc = Json::parse(toJson(r, o).dump());
   EXPECT_EQ(doc.at("experiment").string(), "moving");
+  EXPECT_EQ(doc.at("options").at("max_offset_fraction").number(), o.max_offset_fraction);
   for (const Json& row : doc.at("rows").elements()) {
     for (const char* key : {"success", "final_rot_err_deg", "final_trans_err_cm", "visibility", "moved_cm"})
       expectNumber(row, key);
@@ -463,6 +464,9 @@ TEST(EvalMoving, ShortPushShapeAndBounds) {
   // Pushed at about its centre of mass's height the cube slides: it does not tip over (before the
   // nozzle came down beside the part, it landed on the cube's top edge and tipped it over).
   EXPECT_LT(cu->at("trial_tilt_deg").at(0).number(), 5.0);
+  // The lowest true visibility of the push: at most the initial one, and a fraction.
+  EXPECT_GE(cu->at("trial_min_visibility").at(0).number(), 0.0);
+  EXPECT_LE(cu->at("trial_min_visibility").at(0).number(), cu->at("trial_visibility").at(0).number());
   // The probes (--probe): fits of the scan alone from the true pose, every 30 frames. Without the
   // filter they wander a few degrees (docs/results.md: 4.1 deg for the cube on seed 1), not tens.
   for (const Json& row : doc.at("rows").elements()) {

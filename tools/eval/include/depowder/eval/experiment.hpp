@@ -162,6 +162,9 @@ struct MovingRow {
       trial_turned_deg;
   std::vector<double> trial_tilt_deg;      ///< angle between the part's initial and final vertical axes
   std::vector<std::string> trial_outcome;  ///< how each push ended (sim::PushOutcome)
+  /// The lowest true visibility (the simulator's Eq. 2 eta) of any frame of the push: near 0, the
+  /// push buried the part and no scan shows where it went.
+  std::vector<double> trial_min_visibility;
   std::vector<double> probe_rot_err_deg, probe_trans_err_cm;  ///< MovingOptions::probe_every (fits that ran)
   double probe_rot_mean_deg = 0, probe_rot_p90_deg = 0, probe_trans_mean_cm = 0;
 };
