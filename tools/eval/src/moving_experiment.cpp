@@ -121,7 +121,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
               {"moving", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T0, truth.eta, &tr});
         }
         if (o.probe_every > 0 && f % o.probe_every == 0) {
-          const Pose T_true = world.partTruth(0).T_cell_part;
+          const Pose& T_true = truth.T_cell_part;  // this frame's, as the trackers saw it
           for (std::size_t m = 0; m < methods.size(); ++m) {
             tracker::TrackerConfig c = evalTrackerConfig(methods[m], cell);
             c.filter.data_inflation = 0;  // the scan alone

@@ -173,7 +173,8 @@ std::string staticSection(const Json& doc) {
      << "the tracker starts from the true pose with a seeded error of up to "
      << fmt(opt.at("init_trans_max_m").number() * 1000, 0) << " mm and " << fmt(opt.at("init_rot_max_deg").number(), 0)
      << " deg (random direction and axis), the same for every method. The cell file's settings (--cell, "
-        "default config/cell.yaml: its sim, perception and tracker sections) except eta1 = 0: ICP runs at every visibility, since the paper reports errors at 20 % too.\n\n";
+        "default config/cell.yaml: its sim, perception and tracker sections) except eta1 = 0: ICP runs at every "
+        "visibility, since the paper reports errors at 20 % too.\n\n";
   md << "| Method | Part |";
   for (double v : vis) md << " R " << pct(v) << " |";
   for (double v : vis) md << " t " << pct(v) << " |";

@@ -352,8 +352,9 @@ TEST(EvalReport, TablesCarryOursAndThePapers) {
 
 // The report's "Reproduce with" line keeps what decides the figures, not where a run wrote them.
 TEST(EvalReport, ReproduceCommandDropsOutputFlags) {
-  EXPECT_EQ(reproduceCommand("depowder-eval report --trials 10 --json out/r.json --seed 1 --out out --notes n.md --quiet"),
-            "depowder-eval report --trials 10 --seed 1");
+  EXPECT_EQ(
+      reproduceCommand("depowder-eval report --trials 10 --json out/r.json --seed 1 --out out --notes n.md --quiet"),
+      "depowder-eval report --trials 10 --seed 1");
   EXPECT_EQ(reproduceCommand("depowder-eval report --from r.json --out docs"), "depowder-eval report");
   EXPECT_EQ(reproduceCommand("depowder-eval moving --set filter.q_yaw_deg=1 --cell c.yaml"),
             "depowder-eval moving --set filter.q_yaw_deg=1 --cell c.yaml");
@@ -424,8 +425,8 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   for (const std::string bad :
        {" static --methods icp", " static --part teapot", " static --trials 0", " static --mesh x.stl",
         " static --set icp.nothing=1", " frobnicate", " speed --trace /dev/null", " speed --self-filter",
-        " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0",
-        " static --push-offset 0.1", " moving --push-offset 0.9", " static --cell no-such-cell.yaml"}) {
+        " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0", " static --push-offset 0.1",
+        " moving --push-offset 0.9", " static --cell no-such-cell.yaml"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }
