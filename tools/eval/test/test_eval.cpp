@@ -18,6 +18,7 @@
 #include "depowder/eval/report.hpp"
 #include "depowder/node/yaml.hpp"
 #include "depowder/parts.hpp"
+#include "depowder/stats.hpp"
 
 using namespace depowder;
 using namespace depowder::eval;
@@ -360,6 +361,49 @@ TEST(EvalReport, ReproduceCommandDropsOutputFlags) {
             "depowder-eval moving --set filter.q_yaw_deg=1 --cell c.yaml");
 }
 
+// Table II's overall cell: the mean of the parts and the Wilson interval over all pushes, checked
+// against the interval computed by hand (20 of 25: centre 0.7600, half-width 0.1514).
+TEST(EvalReport, TableTwoOverallCarriesTheRatesInterval) {
+  const auto [lo, hi] = wilsonInterval(20, 25);
+  EXPECT_NEAR(lo, 0.6087, 1e-4);
+  EXPECT_NEAR(hi, 0.9114, 1e-4);
+  EXPECT_NEAR(wilsonInterval(23, 25).first, 0.7503, 1e-4);  // the paper's 92 %
+  EXPECT_DOUBLE_EQ(wilsonInterval(5, 5).second, 1.0);
+  EXPECT_DOUBLE_EQ(wilsonInterval(0, 5).first, 0.0);
+  EXPECT_TRUE(std::isnan(wilsonInterval(1, 0).first));
+  EXPECT_TRUE(std::isnan(wilsonInterval(6, 5).second));
+
+  Json doc = Json::object();
+  doc.set("experiment", "moving");
+  doc.set("interrupted", false);
+  Json opt = Json::object();
+  for (const auto& [k, v] : std::vector<std::pair<const char*, double>>{{"trials", 5},
+                                                                        {"contact_band", 0.2},
+                                                                        {"min_visibility", 0.4},
+                                                                        {"max_visibility", 0.6},
+                                                                        {"push_speed_m_s", 0.02},
+                                                                        {"success_rot_deg", 15},
+                                                                        {"success_trans_m", 0.015}})
+    opt.set(k, v);
+  doc.set("options", opt);
+  Json rows = Json::array();
+  const std::vector<std::pair<const char*, double>> rates{
+      {"cube", 1.0}, {"cup", 1.0}, {"propeller", 0.2}, {"owl", 1.0}, {"pipe", 0.8}};
+  for (const auto& [part, rate] : rates) {
+    Json r = Json::object();
+    r.set("part", part);
+    r.set("method", "cu");
+    r.set("visibility", 0.5);
+    r.set("success", rate);
+    r.set("trials", 5);
+    for (const char* k : {"final_rot_err_deg", "final_trans_err_cm", "moved_cm", "turned_deg"}) r.set(k, 1.0);
+    rows.push(r);
+  }
+  doc.set("rows", rows);
+  const std::string md = reportMarkdown({Json(), Json(), doc, "", "depowder-eval report", ""}, {});
+  EXPECT_NE(md.find("| 80 [61, 91] (92) |"), std::string::npos) << md;
+}
+
 // The default cell's text with `from` replaced by `to` (each must occur once), its part mesh
 // given by absolute path, written where a test may write.
 std::string cellVariant(const std::string& name, const std::string& from, const std::string& to) {
@@ -527,6 +571,10 @@ TEST(EvalCli, MovingListsEachFailedPush) {
                   row.at("trial_final_rot_err_deg").at(0).number(), row.at("trial_final_trans_err_cm").at(0).number());
     EXPECT_NE(text.find(final_error), std::string::npos) << text;
   }
+  // One push: 1 of 1 has the interval [21, 100] %, 0 of 1 [0, 79] %.
+  const std::string overall = failed ? "overall    cu          0 of 1 pushes: 0 % (95 % interval 0 to 79 %)"
+                                     : "overall    cu          1 of 1 pushes: 100 % (95 % interval 21 to 100 %)";
+  EXPECT_NE(text.find(overall), std::string::npos) << text;
   std::remove(json.c_str());
   std::remove(out.c_str());
 }
