@@ -356,8 +356,7 @@ std::string movingSection(const Json& doc, const std::string& note) {
      << " cm/s until the part reaches the box wall (sim/push.hpp, rigid-body physics). Success: final error within "
      << fmt(opt.at("success_rot_deg").number(), 0) << " deg and " << fmt(opt.at("success_trans_m").number() * 1000, 0)
      << " mm. Overall: the mean of the parts, with in brackets the 95 % Wilson interval of the rate over all their"
-        " pushes: with so few pushes a rate is known to about 15 points either way (the paper's 92 % is 23 of 25"
-        " pushes, [75, 98])."
+        " pushes (the paper's 92 % is 23 of 25 pushes: [75, 98])."
      << (selfFiltered(opt)
              ? " The camera proxy's self-filter removes the nozzle's points, as in the cell."
              : " The pushing nozzle stays in the scan (the cell's camera proxy removes it: --self-filter).")
