@@ -373,7 +373,7 @@ std::string movingSection(const Json& doc, const std::string& note) {
       const auto it = by.find({p, m});
       const double ours = it == by.end() ? std::nan("") : 100 * it->second->at("success").number();
       sum += ours;
-      if (it != by.end()) {
+      if (it != by.end() && it->second->has("trials")) {
         const double n = it->second->at("trials").number();
         successes += it->second->at("success").number() * n;
         pushes += n;
