@@ -287,12 +287,20 @@ void printMoving(const MovingResult& r) {
     if (std::find(methods.begin(), methods.end(), row.method) == methods.end()) methods.push_back(row.method);
   for (const std::string& m : methods) {
     double successes = 0, pushes = 0;
+    int flagged[2] = {0, 0};  // pushes the tracker no longer called tracking at the end: failed, followed
     for (const MovingRow& row : r.rows)
       if (row.method == m)
-        for (bool ok : row.trial_success) successes += ok, pushes += 1;
+        for (std::size_t i = 0; i < row.trial_success.size(); ++i) {
+          successes += row.trial_success[i];
+          pushes += 1;
+          flagged[row.trial_success[i] ? 1 : 0] += row.trial_final_status[i] != "tracking";
+        }
     const auto [lo, hi] = wilsonInterval(successes, pushes);
-    std::printf("overall    %-11s %.0f of %.0f pushes: %.0f %% (95 %% interval %.0f to %.0f %%)\n", m.c_str(),
-                successes, pushes, 100 * successes / pushes, 100 * lo, 100 * hi);
+    std::printf(
+        "overall    %-11s %.0f of %.0f pushes: %.0f %% (95 %% interval %.0f to %.0f %%); lost or degraded "
+        "at the end: %d of the %.0f failed, %d of the %.0f followed\n",
+        m.c_str(), successes, pushes, 100 * successes / pushes, 100 * lo, 100 * hi, flagged[0], pushes - successes,
+        flagged[1], successes);
   }
   // Each failed push, numbered as --trace numbers its trials: how the push moved the part tells
   // why (a large turn or a tip), and the trace of that trial shows when the estimate left it.
@@ -301,10 +309,10 @@ void printMoving(const MovingResult& r) {
       if (!row.trial_success[i])
         std::printf(
             "failed %s %s trial %zu: moved %.1f cm, turned %.0f deg, tipped %.0f deg (%s), visibility %.0f %% at "
-            "its lowest; final %.1f deg / %.2f cm\n",
+            "its lowest; final %.1f deg / %.2f cm, reported %s\n",
             row.part.c_str(), row.method.c_str(), i, row.trial_moved_cm[i], row.trial_turned_deg[i],
             row.trial_tilt_deg[i], row.trial_outcome[i].c_str(), 100 * row.trial_min_visibility[i],
-            row.trial_final_rot_err_deg[i], row.trial_final_trans_err_cm[i]);
+            row.trial_final_rot_err_deg[i], row.trial_final_trans_err_cm[i], row.trial_final_status[i].c_str());
   for (const MovingRow& row : r.rows)
     if (!row.probe_rot_err_deg.empty())
       std::printf("probe %-10s %-11s %4zu fits from the truth: %.2f deg (p90 %.2f), %.3f cm\n", row.part.c_str(),

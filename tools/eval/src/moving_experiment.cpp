@@ -93,6 +93,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       for (tracker::Method method : methods)
         trackers.emplace_back(part.name, part.mesh, T0, part.xi, evalTrackerConfig(method, cell));
       std::vector<Pose> last(methods.size(), T0);
+      std::vector<tracker::TrackStatus> last_status(methods.size(), tracker::TrackStatus::kWaiting);
       FrameSource source(cell);
       bool cut = false;
       double min_eta = eta0;
@@ -117,6 +118,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         for (std::size_t m = 0; m < methods.size(); ++m) {
           const tracker::TrackResult tr = trackers[m].track(scan);
           last[m] = tr.T_cell_part;
+          last_status[m] = tr.status;
           control.record(
               {"moving", part.name, tracker::toString(methods[m]), trial, f, truth.T_cell_part, T0, truth.eta, &tr});
         }
@@ -161,6 +163,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         row.trial_tilt_deg.push_back(tilt);
         row.trial_outcome.push_back(sim::toString(push.outcome()));
         row.trial_min_visibility.push_back(min_eta);
+        row.trial_final_status.push_back(tracker::toString(last_status[m]));
       }
     }
     if (trials_done == 0) return result;
@@ -225,6 +228,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
     j.set("trial_tilt_deg", Json::arrayOf(r.trial_tilt_deg));
     j.set("trial_outcome", Json::arrayOf(r.trial_outcome));
     j.set("trial_min_visibility", Json::arrayOf(r.trial_min_visibility));
+    j.set("trial_final_status", Json::arrayOf(r.trial_final_status));
     if (o.probe_every > 0) {
       j.set("probes", static_cast<double>(r.probe_rot_err_deg.size()));
       j.set("probe_rot_err_deg_mean", r.probe_rot_mean_deg);

@@ -422,6 +422,28 @@ std::string movingSection(const Json& doc, const std::string& note) {
        << " |";
   }
   md << "\n\n";
+  // Whether the tracker knew: a failed push it still calls tracking is one the cell cannot tell
+  // from a good track (runs before this field: nothing said).
+  std::ostringstream known;
+  for (const std::string& m : methods) {
+    int flagged[2] = {0, 0}, count[2] = {0, 0};  // failed, followed
+    for (const std::string& p : parts) {
+      const auto it = by.find({p, m});
+      if (it == by.end() || !it->second->has("trial_final_status")) continue;
+      const Json& r = *it->second;
+      for (std::size_t i = 0; i < r.at("trial_success").size(); ++i) {
+        const int ok = r.at("trial_success").at(i).number() != 0;
+        ++count[ok];
+        flagged[ok] += r.at("trial_final_status").at(i).string() != "tracking";
+      }
+    }
+    if (count[0] + count[1] == 0) continue;
+    known << (known.tellp() > 0 ? "; " : "") << methodTitle(m) << " " << flagged[0] << " of " << count[0]
+          << " failed and " << flagged[1] << " of " << count[1] << " followed";
+  }
+  if (known.tellp() > 0)
+    md << "Pushes whose tracker said LOST or DEGRADED at the last frame (the rest it reported as TRACKING): "
+       << known.str() << ".\n\n";
   return md.str();
 }
 

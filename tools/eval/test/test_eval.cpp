@@ -397,11 +397,24 @@ TEST(EvalReport, TableTwoOverallCarriesTheRatesInterval) {
     r.set("success", rate);
     r.set("trials", 5);
     for (const char* k : {"final_rot_err_deg", "final_trans_err_cm", "moved_cm", "turned_deg"}) r.set(k, 1.0);
+    // Pushes 0 .. rate * 5 - 1 followed; the propeller's failures: two flagged lost, two still tracking.
+    std::vector<int> ok;
+    std::vector<std::string> status;
+    for (int i = 0; i < 5; ++i) {
+      ok.push_back(i < std::lround(rate * 5));
+      status.push_back(ok.back() || std::string(part) == "pipe" || i >= 3 ? "tracking" : "lost");
+    }
+    r.set("trial_success", Json::arrayOf(ok));
+    r.set("trial_final_status", Json::arrayOf(status));
     rows.push(r);
   }
   doc.set("rows", rows);
   const std::string md = reportMarkdown({Json(), Json(), doc, "", "depowder-eval report", ""}, {});
   EXPECT_NE(md.find("| 80 [61, 91] (92) |"), std::string::npos) << md;
+  EXPECT_NE(md.find("LOST or DEGRADED at the last frame (the rest it reported as TRACKING): CU-ICP 2 of 5 failed and "
+                    "0 of 20 followed."),
+            std::string::npos)
+      << md;
 }
 
 // The default cell's text with `from` replaced by `to` (each must occur once), its part mesh
@@ -512,6 +525,12 @@ TEST(EvalMoving, ShortPushShapeAndBounds) {
   // The lowest true visibility of the push: at most the initial one, and a fraction.
   EXPECT_GE(cu->at("trial_min_visibility").at(0).number(), 0.0);
   EXPECT_LE(cu->at("trial_min_visibility").at(0).number(), cu->at("trial_visibility").at(0).number());
+  // The tracker's own status at the last frame: a followed cube push ends tracking.
+  for (const Json& row : doc.at("rows").elements()) {
+    const std::string status = row.at("trial_final_status").at(0).string();
+    EXPECT_TRUE(status == "tracking" || status == "degraded" || status == "lost") << status;
+    if (row.at("trial_success").at(0).number() != 0) EXPECT_EQ(status, "tracking");
+  }
   // The probes (--probe): fits of the scan alone from the true pose, every 30 frames. Without the
   // filter they wander a few degrees (docs/results.md: 4.1 deg for the cube on seed 1), not tens.
   for (const Json& row : doc.at("rows").elements()) {
@@ -567,13 +586,19 @@ TEST(EvalCli, MovingListsEachFailedPush) {
   EXPECT_EQ(text.find(line) != std::string::npos, failed) << text;
   if (failed) {
     char final_error[64];
-    std::snprintf(final_error, sizeof final_error, "final %.1f deg / %.2f cm\n",
-                  row.at("trial_final_rot_err_deg").at(0).number(), row.at("trial_final_trans_err_cm").at(0).number());
+    std::snprintf(final_error, sizeof final_error, "final %.1f deg / %.2f cm, reported %s\n",
+                  row.at("trial_final_rot_err_deg").at(0).number(), row.at("trial_final_trans_err_cm").at(0).number(),
+                  row.at("trial_final_status").at(0).string().c_str());
     EXPECT_NE(text.find(final_error), std::string::npos) << text;
   }
-  // One push: 1 of 1 has the interval [21, 100] %, 0 of 1 [0, 79] %.
-  const std::string overall = failed ? "overall    cu          0 of 1 pushes: 0 % (95 % interval 0 to 79 %)"
-                                     : "overall    cu          1 of 1 pushes: 100 % (95 % interval 21 to 100 %)";
+  // One push: 1 of 1 has the interval [21, 100] %, 0 of 1 [0, 79] %; then whether the tracker knew.
+  const bool flagged = row.at("trial_final_status").at(0).string() != "tracking";
+  const std::string overall =
+      failed ? "overall    cu          0 of 1 pushes: 0 % (95 % interval 0 to 79 %); lost or degraded at the end: " +
+                   std::to_string(flagged) + " of the 1 failed, 0 of the 0 followed\n"
+             : "overall    cu          1 of 1 pushes: 100 % (95 % interval 21 to 100 %); lost or degraded at the end: "
+               "0 of the 0 failed, " +
+                   std::to_string(flagged) + " of the 1 followed\n";
   EXPECT_NE(text.find(overall), std::string::npos) << text;
   std::remove(json.c_str());
   std::remove(out.c_str());

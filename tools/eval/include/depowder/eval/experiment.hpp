@@ -165,6 +165,9 @@ struct MovingRow {
   /// The lowest true visibility (the simulator's Eq. 2 eta) of any frame of the push: near 0, the
   /// push buried the part and no scan shows where it went.
   std::vector<double> trial_min_visibility;
+  /// The tracker's status at the push's last frame (tracking, degraded, lost): a failed push the
+  /// tracker still calls tracking is one the cell cannot tell from a good track.
+  std::vector<std::string> trial_final_status;
   std::vector<double> probe_rot_err_deg, probe_trans_err_cm;  ///< MovingOptions::probe_every (fits that ran)
   double probe_rot_mean_deg = 0, probe_rot_p90_deg = 0, probe_trans_mean_cm = 0;
 };
