@@ -6,18 +6,6 @@
 
 namespace depowder::planner {
 
-const char* toString(Tool t) {
-  switch (t) {
-    case Tool::kOff:
-      return "off";
-    case Tool::kVacuum:
-      return "vacuum";
-    case Tool::kAir:
-      return "air";
-  }
-  return "?";
-}
-
 Waypoint atJoints(const robot::ArmConfig& arm, const robot::Joints& q, Tool tool, double speed) {
   Waypoint w;
   w.T_cell_nozzle = robot::forwardNozzle(arm, q);

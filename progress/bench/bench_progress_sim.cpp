@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
                 b.center().head<2>() + T.translation().head<2>() + Eigen::Vector2d(0.5 * b.sizes().x() + 0.025, 0.0);
             Pose T_cell_nozzle = makePoseRpy({0, 0, 0}, M_PI, 0, 0);  // +z (spray) down
             T_cell_nozzle.translation() << xy, world.powder().surfaceAt(xy) + 0.015;
-            world.setNozzle(T_cell_nozzle, sim::Tool::kOff);
+            world.setNozzle(T_cell_nozzle, Tool::kOff);
           } else {
             world.removeNozzle();
           }

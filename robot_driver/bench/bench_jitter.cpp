@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
     for (int k = 0; k < 8; ++k) {
       const double a = 2 * kPi * k / 8;
       p.waypoints.push_back(
-          {makePoseRpy({0.15 * std::cos(a), 0.1 * std::sin(a), 0.1 + 0.05 * std::sin(2 * a)}, 0, kPi, 0), Tool::Vacuum,
+          {makePoseRpy({0.15 * std::cos(a), 0.1 * std::sin(a), 0.1 + 0.05 * std::sin(2 * a)}, 0, kPi, 0), Tool::kVacuum,
            0.15});
     }
     return p;

@@ -63,7 +63,7 @@ bool toPlan(const nozzle_plan_t& msg, robot::Plan* plan, std::string* why) {
       *why = "waypoint " + std::to_string(i) + ": unknown tool " + std::to_string(w.tool);
       return false;
     }
-    pw.tool = static_cast<robot::Tool>(w.tool);
+    pw.tool = static_cast<Tool>(w.tool);
     plan->waypoints.push_back(pw);
   }
   return true;

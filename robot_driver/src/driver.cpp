@@ -171,7 +171,7 @@ bool Driver::enableFromCurrentPosition() {
     if (r.connectionLost()) session_.abort();
     return false;
   }
-  session_.setTool(Tool::Off, true);
+  session_.setTool(Tool::kOff, true);
   estop_handled_ = false;
   // Resume the current plan (if still fresh) from its next waypoint, from where the arm is.
   Plan resume;
@@ -235,14 +235,14 @@ bool Driver::cycle() {
   if (events != estop_seen_) {
     estop_seen_ = events;
     session_.halt();
-    session_.setTool(Tool::Off, true);
+    session_.setTool(Tool::kOff, true);
     session_.motorOff();
     generator_.reset(limiter_.last());
     estop_handled_ = true;
     std::lock_guard<std::mutex> lock(mutex_);
     status_.mode = DriverMode::EStopped;
     status_.qd = {};
-    status_.tool = Tool::Off;
+    status_.tool = Tool::kOff;
   }
   if (estop_latched_) return false;
   if (estop_handled_) {
@@ -289,7 +289,7 @@ bool Driver::slaveCycle() {
 
   // 5. Safety: stale plan, planner heartbeat, workspace -> controlled stop.
   // A finished plan has nothing left to stop, but its last tool state must not outlive it.
-  if (have_plan && generator_.finished() && generator_.current().tool != Tool::Off &&
+  if (have_plan && generator_.finished() && generator_.current().tool != Tool::kOff &&
       checkNewPlan(cfg_.safety, wall_(), plan_utime, hb_age).stop != StopReason::None) {
     generator_.stop();
   }

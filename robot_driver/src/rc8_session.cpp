@@ -161,9 +161,9 @@ SessionResult Rc8Session::move(const Joints& target, Joints* measured) {
 SessionResult Rc8Session::setTool(Tool tool, bool force) {
   const int t = static_cast<int>(tool);
   if (!force && t == tool_) return {};
-  CallResult r = act_.variablePutValue(vacuum_, Variant::boolean(tool == Tool::Vacuum));
+  CallResult r = act_.variablePutValue(vacuum_, Variant::boolean(tool == Tool::kVacuum));
   if (!r.ok()) return SessionResult::from(r);
-  r = act_.variablePutValue(air_, Variant::boolean(tool == Tool::Air));
+  r = act_.variablePutValue(air_, Variant::boolean(tool == Tool::kAir));
   if (!r.ok()) return SessionResult::from(r);
   tool_ = t;
   return {};

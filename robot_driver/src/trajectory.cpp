@@ -76,7 +76,7 @@ PreparedPlan preparePlan(const ArmConfig& arm, const TrajectoryConfig& cfg, cons
     if (!isValidPose(w.T_cell_nozzle, 1e-6)) return refuse(PlanStatus::InvalidWaypoint, i, "invalid pose");
     if (!std::isfinite(w.speed) || w.speed <= 0)
       return refuse(PlanStatus::InvalidWaypoint, i, "speed must be a positive number of m/s");
-    if (w.tool != Tool::Off && w.tool != Tool::Vacuum && w.tool != Tool::Air)
+    if (w.tool != Tool::kOff && w.tool != Tool::kVacuum && w.tool != Tool::kAir)
       return refuse(PlanStatus::InvalidWaypoint, i, "unknown tool");
     if (!workspace.contains(w.T_cell_nozzle.translation()))
       return refuse(PlanStatus::OutsideWorkspace, i, "nozzle position outside the workspace box");
@@ -162,7 +162,7 @@ void TrajectoryGenerator::reset(const Joints& q) {
   waypoint_offset_ = 0;
   hold_q_ = q;
   last_q_ = q;
-  tool_ = Tool::Off;
+  tool_ = Tool::kOff;
   sample_ = TrajectorySample();
   sample_.q = q;
 }
@@ -181,7 +181,7 @@ void TrajectoryGenerator::setPlan(const PreparedPlan& plan) {
 void TrajectoryGenerator::stop() {
   pending_ = false;
   if (hasPath() || speed_ > 0) stopping_ = true;
-  tool_ = Tool::Off;
+  tool_ = Tool::kOff;
 }
 
 double TrajectoryGenerator::brakingTime() const {
@@ -350,7 +350,7 @@ void TrajectoryGenerator::advance(double dt) {
       finished_ = true;
       return;
     }
-    tool_ = stopping_ ? Tool::Off : segments_[segment_].tool;
+    tool_ = stopping_ ? Tool::kOff : segments_[segment_].tool;
   }
 }
 

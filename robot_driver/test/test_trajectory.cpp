@@ -26,7 +26,7 @@ ArmConfig cellArm() {
 
 Pose down(double x, double y, double z) { return makePoseRpy({x, y, z}, kPi, 0, 0); }
 
-Plan linePlan(std::int64_t id, const std::vector<Eigen::Vector3d>& pts, double speed, Tool tool = Tool::Vacuum) {
+Plan linePlan(std::int64_t id, const std::vector<Eigen::Vector3d>& pts, double speed, Tool tool = Tool::kVacuum) {
   Plan p;
   p.id = id;
   for (const auto& x : pts) p.waypoints.push_back({down(x.x(), x.y(), x.z()), tool, speed});
@@ -108,7 +108,7 @@ TEST(PreparePlan, RefusesBadPlans) {
   // Unreachable with a tiny workspace-compatible pose: the nozzle pointing straight up at the floor.
   Plan up;
   up.id = 2;
-  up.waypoints.push_back({makePoseRpy({0.1, 0, 0.02}, 0, 0, 0), Tool::Off, 0.05});
+  up.waypoints.push_back({makePoseRpy({0.1, 0, 0.02}, 0, 0, 0), Tool::kOff, 0.05});
   pp = preparePlan(arm, cfg, ws, up, q0);
   EXPECT_EQ(pp.status, PlanStatus::Unreachable);
   // Non-positive and non-finite speeds, invalid pose.
@@ -155,7 +155,7 @@ TEST(Trajectory, FollowsPlanWithinLimits) {
   EXPECT_LT(translationDistance(forwardNozzle(arm, r.samples.back().q), down(-0.1, -0.08, 0.12)), 1e-9);
   EXPECT_EQ(r.samples.back().plan_id, 7);
   EXPECT_EQ(r.samples.back().waypoint_index, 5);
-  EXPECT_EQ(r.samples[10].tool, Tool::Vacuum);
+  EXPECT_EQ(r.samples[10].tool, Tool::kVacuum);
   // Duration: at least length / v, and not much more (stops only at the four corners).
   int moving_cycles = 0;
   for (const auto& s : r.samples) moving_cycles += s.moving ? 1 : 0;
@@ -235,7 +235,7 @@ TEST(Trajectory, ControlledStopBrakesAndHolds) {
   // Holds: the last 100 samples are identical, and the tool is off.
   for (std::size_t k = r.samples.size() - 100; k < r.samples.size(); ++k) {
     EXPECT_EQ(r.samples[k].q, r.samples.back().q);
-    EXPECT_EQ(r.samples[k].tool, Tool::Off);
+    EXPECT_EQ(r.samples[k].tool, Tool::kOff);
   }
   // The stop point lies on the planned path (between two IK points, within 1 mm).
   EXPECT_TRUE(Workspace().contains(forwardNozzle(arm, r.samples.back().q).translation(), 1e-3));

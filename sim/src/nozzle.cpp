@@ -4,18 +4,6 @@
 
 namespace depowder::sim {
 
-const char* toString(Tool tool) {
-  switch (tool) {
-    case Tool::kOff:
-      return "off";
-    case Tool::kVacuum:
-      return "vacuum";
-    case Tool::kAir:
-      return "air";
-  }
-  return "?";
-}
-
 Mesh makeNozzleMesh(const NozzleGeometry& g) {
   Mesh m;
   const int n = std::max(3, g.segments);

@@ -38,7 +38,7 @@ ArmConfig cellArm() {
   return arm;
 }
 
-Plan linePlan(std::int64_t id, const std::vector<Eigen::Vector3d>& pts, double speed, Tool tool = Tool::Vacuum) {
+Plan linePlan(std::int64_t id, const std::vector<Eigen::Vector3d>& pts, double speed, Tool tool = Tool::kVacuum) {
   Plan p;
   p.id = id;
   p.utime = wallUtime();

@@ -31,7 +31,7 @@ sim::NozzleScript orbitAround(const Eigen::AlignedBox3d& b, const StaticOptions&
   seg.orbit.start_deg = start_deg;
   seg.orbit.tilt_deg = o.nozzle_tilt_deg;
   seg.orbit.revolutions = 1e6;
-  seg.orbit.tool = sim::Tool::kOff;  // the nozzle only occludes and interferes: visibility stays as set
+  seg.orbit.tool = Tool::kOff;  // the nozzle only occludes and interferes: visibility stays as set
   return sim::NozzleScript({seg}, true);
 }
 

@@ -109,7 +109,7 @@ TEST(EvalScene, SelfFilterTakesTheNozzleOutOfTheScan) {
   Pose T_cell_nozzle = Pose::Identity();
   T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
   T_cell_nozzle.translation() << 0.08, 0.03, 0.11;
-  world.setNozzle(T_cell_nozzle, sim::Tool::kOff);
+  world.setNozzle(T_cell_nozzle, Tool::kOff);
   const Pose T_nozzle_cell = T_cell_nozzle.inverse(Eigen::Isometry);
   const double r = cell.sim.nozzle.radius;
   auto onNozzle = [&](const Cloud& scan, double grow) {
@@ -529,7 +529,9 @@ TEST(EvalMoving, ShortPushShapeAndBounds) {
   for (const Json& row : doc.at("rows").elements()) {
     const std::string status = row.at("trial_final_status").at(0).string();
     EXPECT_TRUE(status == "tracking" || status == "degraded" || status == "lost") << status;
-    if (row.at("trial_success").at(0).number() != 0) EXPECT_EQ(status, "tracking");
+    if (row.at("trial_success").at(0).number() != 0) {
+      EXPECT_EQ(status, "tracking");
+    }
   }
   // The probes (--probe): fits of the scan alone from the true pose, every 30 frames. Without the
   // filter they wander a few degrees (docs/results.md: 4.1 deg for the cube on seed 1), not tens.

@@ -10,15 +10,12 @@
 #include <vector>
 
 #include "depowder/geometry.hpp"
+#include "depowder/tool.hpp"
 #include "depowder/planner/collision.hpp"
 #include "depowder/planner/config.hpp"
 #include "depowder/robot/kinematics.hpp"
 
 namespace depowder::planner {
-
-/// Values of waypoint_t.TOOL_*.
-enum class Tool : std::int8_t { kOff = 0, kVacuum = 1, kAir = 2 };
-const char* toString(Tool t);
 
 struct Waypoint {
   Pose T_cell_nozzle = Pose::Identity();  ///< nozzle tip pose (z = spray direction)

@@ -57,7 +57,7 @@ struct DriverStatus {
   Joints q_command{};                     ///< rad, last command sent
   Joints qd{};                            ///< rad/s, commanded velocity
   Pose T_cell_nozzle = Pose::Identity();  ///< forward kinematics of q with the tool offset
-  Tool tool = Tool::Off;
+  Tool tool = Tool::kOff;
   std::int64_t plan_id = -1;
   int waypoint_index = -1;
   std::int64_t plan_utime = 0;

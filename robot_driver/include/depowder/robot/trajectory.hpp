@@ -21,11 +21,9 @@
 #include <vector>
 
 #include "depowder/robot/kinematics.hpp"
+#include "depowder/tool.hpp"
 
 namespace depowder::robot {
-
-/// Tool states (waypoint_t.TOOL_*).
-enum class Tool : int { Off = 0, Vacuum = 1, Air = 2 };
 
 /// Axis-aligned box the nozzle tip must stay in, cell frame.
 struct Workspace {
@@ -47,7 +45,7 @@ struct TrajectoryConfig {
 
 struct PlanWaypoint {
   Pose T_cell_nozzle = Pose::Identity();  ///< nozzle tip pose (z axis = spray direction)
-  Tool tool = Tool::Off;                  ///< while travelling to and at this waypoint
+  Tool tool = Tool::kOff;                  ///< while travelling to and at this waypoint
   double speed = 0.05;                    ///< m/s, nozzle speed to reach it
 };
 
@@ -75,7 +73,7 @@ struct PathPoint {
   double speed = 0;      ///< m/s, nozzle speed limit on the way to this point
   double cart_step = 0;  ///< m, nozzle distance from the previous point
   double rot_step = 0;   ///< rad, nozzle orientation change from the previous point
-  Tool tool = Tool::Off;
+  Tool tool = Tool::kOff;
   int waypoint = 0;  ///< index of the plan waypoint this point leads to
 };
 
@@ -101,7 +99,7 @@ struct TrajectorySample {
   Joints q{};             ///< rad, position to command
   Joints qd{};            ///< rad/s
   double path_speed = 0;  ///< path parameter speed (1 = the fastest joint at its planning limit)
-  Tool tool = Tool::Off;
+  Tool tool = Tool::kOff;
   std::int64_t plan_id = -1;
   int waypoint_index = -1;  ///< next waypoint of the plan (-1 without a plan)
   bool moving = false;
@@ -139,7 +137,7 @@ class TrajectoryGenerator {
     double vmax = 0;    ///< path speed limit
     double amax = 0;    ///< path acceleration limit
     double v_end = 0;   ///< largest speed at the end (backward pass)
-    Tool tool = Tool::Off;
+    Tool tool = Tool::kOff;
     int waypoint = 0;
   };
   std::vector<Segment> buildSegments(const Joints& q_from, const PreparedPlan& plan, double* v_start_max) const;
@@ -164,7 +162,7 @@ class TrajectoryGenerator {
   int last_waypoint_ = 0;
   Joints hold_q_{};
   Joints last_q_{};
-  Tool tool_ = Tool::Off;
+  Tool tool_ = Tool::kOff;
   TrajectorySample sample_;
 };
 

@@ -5,12 +5,9 @@
 
 #include "depowder/geometry.hpp"
 #include "depowder/mesh.hpp"
+#include "depowder/tool.hpp"
 
 namespace depowder::sim {
-
-/// Tool state; the values equal waypoint_t::TOOL_*.
-enum class Tool : int { kOff = 0, kVacuum = 1, kAir = 2 };
-const char* toString(Tool tool);
 
 struct NozzleGeometry {
   double radius = 0.0125;  ///< m (2.5 cm diameter)
