@@ -10,10 +10,10 @@
 #include <vector>
 
 #include "depowder/geometry.hpp"
-#include "depowder/tool.hpp"
 #include "depowder/planner/collision.hpp"
 #include "depowder/planner/config.hpp"
 #include "depowder/robot/kinematics.hpp"
+#include "depowder/tool.hpp"
 
 namespace depowder::planner {
 

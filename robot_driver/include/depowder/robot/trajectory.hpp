@@ -45,7 +45,7 @@ struct TrajectoryConfig {
 
 struct PlanWaypoint {
   Pose T_cell_nozzle = Pose::Identity();  ///< nozzle tip pose (z axis = spray direction)
-  Tool tool = Tool::kOff;                  ///< while travelling to and at this waypoint
+  Tool tool = Tool::kOff;                 ///< while travelling to and at this waypoint
   double speed = 0.05;                    ///< m/s, nozzle speed to reach it
 };
 
