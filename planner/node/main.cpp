@@ -1,6 +1,7 @@
 // depowder-planner: PART_POSE + PROGRESS + ROBOT_STATE -> NOZZLE_PLAN (paper Sec. III-B: contour
 // paths through the three phases, FCL-checked, OMPL transitions, one part per cycle), with a
 // heartbeat. The logic is in planner_node.hpp and the library; this file is the bus.
+#include <chrono>
 #include <iomanip>
 #include <iostream>
 
@@ -52,8 +53,16 @@ int main(int argc, char** argv) {
                                [&](const part_pose_t& m, const std::string&) { rejected(logic.onPose(m)); });
     bus.subscribe<progress_t>("PROGRESS",
                               [&](const progress_t& m, const std::string&) { rejected(logic.onProgress(m)); });
-    bus.subscribe<robot_state_t>("ROBOT_STATE",
-                                 [&](const robot_state_t& m, const std::string&) { rejected(logic.onRobot(m)); });
+    // A driver that has just started (or come back) refuses plans until it has heard this
+    // planner's heartbeat: its first ROBOT_STATE after a silence gets one at once, ahead of the
+    // plan it leads to, rather than at the next tick.
+    std::chrono::steady_clock::time_point last_robot_state{};
+    bus.subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t& m, const std::string&) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_robot_state > std::chrono::seconds(1)) heartbeat.publish();
+      last_robot_state = now;
+      rejected(logic.onRobot(m));
+    });
     heartbeat.setState(heartbeat_t::RUNNING);
     heartbeat.publish();
     std::cout << "depowder-planner: " << cell.parts.size() << " parts, cell " << cell.file << std::endl;

@@ -12,6 +12,7 @@
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/nozzle_plan_t.hpp"
+#include "depowder/robot_state_t.hpp"
 #include "depowder/process_under_test.hpp"
 
 namespace depowder::planner {
@@ -68,6 +69,36 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
 
   // 3. SIGTERM: a clean exit.
   EXPECT_EQ(process_.terminate(), 0);
+}
+
+// A driver refuses plans until it has heard the planner's heartbeat. One that starts after the
+// planner hears it at once: the planner answers the first ROBOT_STATE after a silence with a
+// heartbeat, long before its next tick (10 s here), and not every ROBOT_STATE.
+TEST(PlannerProcessAnnounce, FirstRobotStateAfterASilenceGetsAHeartbeat) {
+  testutil::ProcessUnderTest process{"depowder-planner"};
+  process.start({"--cell", process.write("cell.yaml", test::cubeCellYaml("planner: {heartbeat_period: 10}\n")),
+                 "--url", kUrl, "--prefix", process.prefix()});
+  node::Bus bus(kUrl, process.prefix());
+  int heartbeats = 0;
+  bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
+    heartbeats += h.process == "depowder-planner";
+  });
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-planner";
+  const int started = heartbeats;
+  robot_state_t robot{};
+  robot.utime = 1000;
+  robot.mode = robot_state_t::MODE_IDLE;
+  bus.publish("ROBOT_STATE", robot);
+  EXPECT_TRUE(bus.spinUntil([&] { return heartbeats > started; }, 2)) << "no heartbeat after the first ROBOT_STATE";
+  const int announced = heartbeats;
+  for (int k = 1; k <= 20; ++k) {  // the driver's 125 Hz: no heartbeat each
+    robot.utime += 8000;
+    bus.publish("ROBOT_STATE", robot);
+    bus.spinUntil([] { return false; }, 0.008);
+  }
+  bus.spinUntil([] { return false; }, 0.3);
+  EXPECT_EQ(heartbeats, announced);
+  EXPECT_EQ(process.terminate(), 0);
 }
 
 }  // namespace
