@@ -12,8 +12,8 @@
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/nozzle_plan_t.hpp"
-#include "depowder/robot_state_t.hpp"
 #include "depowder/process_under_test.hpp"
+#include "depowder/robot_state_t.hpp"
 
 namespace depowder::planner {
 namespace {
@@ -76,13 +76,12 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
 // heartbeat, long before its next tick (10 s here), and not every ROBOT_STATE.
 TEST(PlannerProcessAnnounce, FirstRobotStateAfterASilenceGetsAHeartbeat) {
   testutil::ProcessUnderTest process{"depowder-planner"};
-  process.start({"--cell", process.write("cell.yaml", test::cubeCellYaml("planner: {heartbeat_period: 10}\n")),
-                 "--url", kUrl, "--prefix", process.prefix()});
+  process.start({"--cell", process.write("cell.yaml", test::cubeCellYaml("planner: {heartbeat_period: 10}\n")), "--url",
+                 kUrl, "--prefix", process.prefix()});
   node::Bus bus(kUrl, process.prefix());
   int heartbeats = 0;
-  bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
-    heartbeats += h.process == "depowder-planner";
-  });
+  bus.subscribe<heartbeat_t>(
+      "HEARTBEAT", [&](const heartbeat_t& h, const std::string&) { heartbeats += h.process == "depowder-planner"; });
   ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-planner";
   const int started = heartbeats;
   robot_state_t robot{};
