@@ -55,9 +55,11 @@ esac
 # runs, not at the mercy of whatever else the machine (or ctest -j2) runs beside them.
 # One deployment; with three hosts: camera (sim, camera proxy), compute (the rest), robot
 # (driver, and its own logger: the robot host keeps recording while its LAN is cut).
+# The receive buffers are the deployments' too (4 MB): without them the robot host's logger,
+# at priority 5, missed plans that the driver followed.
 ttl=0; [ $hosts -gt 1 ] && ttl=1
 cat > deploy.yaml <<YAML
-lcm_url: "udpm://239.255.76.67:7667?ttl=$ttl"
+lcm_url: "udpm://239.255.76.67:7667?ttl=$ttl&recv_buf_size=4194304"
 hosts:
   - name: camera
     processes:
