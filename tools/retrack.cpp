@@ -35,9 +35,9 @@ int usage(const std::string& error = "") {
          "  error's rotation axis and translation in the part frame), the fit's inlier ratio and RMS, P_cad against\n"
          "  the cameras' lines of sight (sight seen/in front/hidden samples), the nozzle's tool and tip\n"
          "  (cell axes, from the part's origin), MOVING while the filter takes the part for moving\n"
-         "  (filter.moving_translation), REFIT when the refit replaced the pose, RESET when the filter\n"
-         "  started again (filter.reset_frames) and TEMPLATE when the template was derived again\n"
-         "  (Alg. 1, line 13); then\n"
+         "  (filter.moving_translation), FALLING while it takes it for falling (filter.fall_sink),\n"
+         "  REFIT when the refit replaced the pose, RESET when the filter started again\n"
+         "  (filter.reset_frames) and TEMPLATE when the template was derived again (Alg. 1, line 13); then\n"
          "  the error percentiles over the frames that reported TRACKING.\n"
          "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
          "  no truth.\n";
@@ -98,8 +98,8 @@ int main(int argc, char** argv) {
     double next_print = from;
     std::map<std::string, std::vector<double>> rot, trans;
     std::map<std::string, std::map<std::string, int>> statuses;
-    std::map<std::string, std::pair<double, double>> last;  // deg, cm
-    std::map<std::string, int> refits, resets, moving;      // frames, per part
+    std::map<std::string, std::pair<double, double>> last;       // deg, cm
+    std::map<std::string, int> refits, resets, moving, falling;  // frames, per part
     for (const lcm::LogEvent* e; (e = log.readNextEvent()) != nullptr;) {
       if (e->channel == prefix + "SIM_TRUTH") {
         sim_truth_t m;
@@ -132,6 +132,7 @@ int main(int argc, char** argv) {
           if (result && result->refit) ++refits[p.part];
           if (result && result->reset) ++resets[p.part];
           if (result && result->moving) ++moving[p.part];
+          if (result && result->falling) ++falling[p.part];
           const auto T = node::fromMsg(p.T_cell_part);
           const auto truth_it = truth.find(p.part);
           if (!T || truth_it == truth.end() || t < from) continue;
@@ -152,7 +153,7 @@ int main(int argc, char** argv) {
             std::printf(
                 "%7.2f s  %-10s %-8s eta %.3f  err %6.2f deg about (%+.2f %+.2f %+.2f) %5.2f cm (%+.1f %+.1f %+.1f mm) "
                 " "
-                "inliers %.2f rms %.2f mm  sight %d/%d/%d  nozzle %s %+.0f %+.0f %+.0f mm%s%s%s%s  %s\n",
+                "inliers %.2f rms %.2f mm  sight %d/%d/%d  nozzle %s %+.0f %+.0f %+.0f mm%s%s%s%s%s  %s\n",
                 t, p.part.c_str(), status.c_str(), p.eta, dr, aa.axis().x(), aa.axis().y(), aa.axis().z(), dt,
                 err_mm.x(), err_mm.y(), err_mm.z(), p.inlier_ratio, 1e3 * p.fitness, result ? result->sight.seen : 0,
                 result ? result->sight.in_front : 0, result ? result->sight.hidden : 0,
@@ -160,8 +161,9 @@ int main(int argc, char** argv) {
                 : tool == waypoint_t::TOOL_VACUUM ? "vac"
                                                   : "off",
                 nozzle_mm.x(), nozzle_mm.y(), nozzle_mm.z(), result && result->moving ? " MOVING" : "",
-                result && result->refit ? " REFIT" : "", result && result->reset ? " RESET" : "",
-                result && result->template_updated ? " TEMPLATE" : "", p.status_reason.c_str());
+                result && result->falling ? " FALLING" : "", result && result->refit ? " REFIT" : "",
+                result && result->reset ? " RESET" : "", result && result->template_updated ? " TEMPLATE" : "",
+                p.status_reason.c_str());
           }
         }
       }
@@ -174,7 +176,8 @@ int main(int argc, char** argv) {
     }
     std::printf("%lld frames tracked\n", static_cast<long long>(frames));
     for (const auto& [part, counts] : statuses) {
-      std::printf("%s: moving %d, refits %d, resets %d,", part.c_str(), moving[part], refits[part], resets[part]);
+      std::printf("%s: moving %d, falling %d, refits %d, resets %d,", part.c_str(), moving[part], falling[part],
+                  refits[part], resets[part]);
       for (const auto& [status, n] : counts) std::printf(" %s %d", status.c_str(), n);
       const auto& r = rot[part];
       const auto& d = trans[part];

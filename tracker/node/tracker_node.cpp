@@ -66,6 +66,8 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   filter.read("moving_rotation_deg", c.filter.moving_rotation_deg, 0.0, 180.0);
   filter.read("moving_frames", c.filter.moving_frames, 1, 1000);
   filter.read("moving_full", c.filter.moving_full, 1.0, 100.0);
+  filter.read("fall_sink", c.filter.fall_sink, 1e-6, 1.0);
+  filter.read("fall_tilt_deg", c.filter.fall_tilt_deg, 0.0, 90.0);
   filter.read("initial_deg", c.filter.initial_deg, 1e-6, 180.0);
   filter.read("initial_m", c.filter.initial_m, 1e-7, 1.0);
   filter.read("reset_chi2", c.filter.reset_chi2, 1e-6, 1e9);

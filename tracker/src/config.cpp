@@ -73,6 +73,8 @@ std::string validate(const TrackerConfig& c) {
     return "filter.moving_translation and filter.moving_rotation_deg must be >= 0";
   if (c.filter.moving_frames < 1) return "filter.moving_frames must be >= 1";
   if (!(std::isfinite(c.filter.moving_full) && c.filter.moving_full >= 1)) return "filter.moving_full must be >= 1";
+  if (!positive(c.filter.fall_sink)) return "filter.fall_sink must be > 0 m";
+  if (!nonNegative(c.filter.fall_tilt_deg)) return "filter.fall_tilt_deg must be >= 0 (0 = no fall gate)";
   if (!positive(c.filter.reset_chi2) || !positive(c.filter.reset_deg) || !positive(c.filter.reset_m))
     return "filter.reset_chi2, filter.reset_deg and filter.reset_m must be > 0";
   if (c.filter.reset_frames < 0) return "filter.reset_frames must be >= 0 (0 = no disagreement check)";
@@ -130,6 +132,8 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"filter.moving_translation", &c.filter.moving_translation},
                                               {"filter.moving_rotation_deg", &c.filter.moving_rotation_deg},
                                               {"filter.moving_full", &c.filter.moving_full},
+                                              {"filter.fall_sink", &c.filter.fall_sink},
+                                              {"filter.fall_tilt_deg", &c.filter.fall_tilt_deg},
                                               {"filter.initial_m", &c.filter.initial_m},
                                               {"filter.reset_chi2", &c.filter.reset_chi2},
                                               {"filter.reset_deg", &c.filter.reset_deg},

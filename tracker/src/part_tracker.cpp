@@ -67,10 +67,12 @@ void PartTracker::resetInformation() {
 
 // The filter's prediction for this frame: the part stays where it was, less sure by the process
 // noise (cell axes: it turns about the vertical and slides, it seldom tips or sinks; a still part
-// turns far less than a pushed one, and one that moved a little, a little more).
+// turns far less than a pushed one, and one that moved a little, a little more). With the fall
+// gate on (FilterConfig::fall_tilt_deg), a part whose origin sinks fast may tip: it is falling.
 Vector6d PartTracker::processVariance() const {
   const FilterConfig& f = config_.filter;
-  const double yaw = f.q_yaw_deg * M_PI / 180, tilt = f.q_tilt_deg * M_PI / 180;
+  const double yaw = f.q_yaw_deg * M_PI / 180;
+  const double tilt = (falling_ ? std::max(f.q_tilt_deg, f.fall_tilt_deg) : f.q_tilt_deg) * M_PI / 180;
   Vector6d q;
   q << tilt * tilt, tilt * tilt, yaw * yaw, f.q_xy * f.q_xy, f.q_xy * f.q_xy, f.q_z * f.q_z;
   return q;
@@ -79,7 +81,7 @@ Vector6d PartTracker::processVariance() const {
 PosePrior PartTracker::predicted() const {
   const FilterConfig& f = config_.filter;
   Vector6d q = processVariance();
-  const double turn = f.still_turn + (1 - f.still_turn) * turn_open_;
+  const double turn = falling_ ? 1 : f.still_turn + (1 - f.still_turn) * turn_open_;
   q.head<3>() *= turn * turn;
   // The part turns about the middle of what the cameras see of it, not about its origin: in
   // PosePrior's coordinates a turn w about c also moves the origin by w x (t - c).
@@ -374,12 +376,15 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     const double slide = translationDistance(recent_.front(), recent_.back());
     const bool turned = rotationDistanceDeg(recent_.front(), recent_.back()) > f.moving_rotation_deg;
     moving_ = turned || slide > f.moving_translation;
+    falling_ =
+        f.fall_tilt_deg > 0 && recent_.front().translation().z() - recent_.back().translation().z() > f.fall_sink;
     const double full = f.moving_full * f.moving_translation;
     turn_open_ = !moving_                  ? 0
                  : turned || slide >= full ? 1
                                            : (slide - f.moving_translation) / (full - f.moving_translation);
   }
   r.moving = moving_;
+  r.falling = falling_;
   r.T_cell_part = T_cell_part_;
   r.status = TrackStatus::kTracking;
   if (reg.inlier_ratio < s.tracking_min_inlier_ratio) {

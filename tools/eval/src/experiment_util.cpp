@@ -64,7 +64,7 @@ tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell&
 std::string traceHeader() {
   return "experiment,part,method,trial,frame,rot_err_deg,trans_err_mm,err_rx_deg,err_ry_deg,err_rz_deg,"
          "err_x_mm,err_y_mm,err_z_mm,moved_mm,turned_deg,status,iterations,inlier_ratio,rms_mm,eta,"
-         "template_updated,refit,moving,reset,eta_true";
+         "template_updated,refit,moving,falling,reset,eta_true";
 }
 
 std::string traceLine(const TraceRow& row) {
@@ -79,9 +79,9 @@ std::string traceLine(const TraceRow& row) {
                 row.experiment.c_str(), row.part.c_str(), row.method.c_str(), row.trial, row.frame, e.rot_deg,
                 10.0 * e.trans_cm, w.x(), w.y(), w.z(), t.x(), t.y(), t.z(), 10.0 * moved.trans_cm, moved.rot_deg);
   std::string line = buf;
-  std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d,%d,%d,%.4f", tracker::toString(r.status), r.iterations,
+  std::snprintf(buf, sizeof buf, ",%s,%d,%.3f,%.2f,%.4f,%d,%d,%d,%d,%d,%.4f", tracker::toString(r.status), r.iterations,
                 r.inlier_ratio, 1000.0 * r.fitness, r.eta, r.template_updated ? 1 : 0, r.refit ? 1 : 0,
-                r.moving ? 1 : 0, r.reset ? 1 : 0, row.eta_true);
+                r.moving ? 1 : 0, r.falling ? 1 : 0, r.reset ? 1 : 0, row.eta_true);
   return line + buf;
 }
 

@@ -90,6 +90,10 @@ struct FilterConfig {
   double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames frames...
   double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
   int moving_frames = 10;             ///< frames (1/3 s at 30 fps)
+  double fall_sink = 0.003;  ///< m: a part whose origin sank more than this over the last moving_frames frames is
+                             ///< falling (it topples)...
+  double fall_tilt_deg = 0;  ///< ...and its tip noise is this, deg per frame; 0 = no such gate (the default: a
+                             ///< lagging estimate sinks too, tracker/README.md); a cell whose parts topple: 1
   double moving_full = 2;    ///< a moving part's turn noise opens from a still part's (at the thresholds above) to a
                              ///< pushed part's (at this many times them), in proportion; 1 = at once
   double initial_deg = 0.5;  ///< uncertainty of the initial pose (and of a refit's), deg...

@@ -50,6 +50,7 @@ struct TrackResult {
   bool reset = false;                   ///< the filter started again (FilterConfig::reset_frames)
   bool checked = false;                 ///< the disagreement check ran this frame (FilterConfig::check_every)
   bool moving = false;                  ///< the filter takes the part as moving (FilterConfig::moving_translation)
+  bool falling = false;                 ///< ...and as falling: its tip noise is open (FilterConfig::fall_sink)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
   std::size_t scan_points = 0;          ///< scan points in the crop around the part
@@ -118,6 +119,7 @@ class PartTracker {
   Matrix6d information_ = Matrix6d::Zero();
   std::deque<Pose> recent_;  ///< the last poses tracked (the filter's motion test)
   bool moving_ = false;
+  bool falling_ = false;  ///< the origin sank more than FilterConfig::fall_sink over the last moving_frames frames
   double turn_open_ = 0;  ///< 0 (still) .. 1 (pushed): how far the turn noise is open (FilterConfig::moving_full)
   /// The fit without the filter against the filter's, the last frames: its pose less the filter's, and its
   /// inlier ratio less the filter's.
