@@ -405,7 +405,7 @@ TEST(PartTracker, StillPipeNudgedAsideIsNotGivenAPushedPartsTurns) {
 }
 
 // The toppling pipe (config/scenarios/pipe_topple_cell.yaml): dug out, it tips over the bottom edge
-// under its centroid by 60 deg in 25 frames (accelerating, as it falls), then lies still. A part
+// under the mean of its vertices by 60 deg in 25 frames (accelerating, as it falls), then lies still. A part
 // in powder seldom tips, so the filter's tip noise is small (q_tilt_deg) and the filter lags such
 // a fall: here it lost the pipe. A falling part's origin sinks; once it sank more than fall_sink
 // over moving_frames frames the tip noise is fall_tilt_deg, 1 deg as in that cell (measured:
@@ -415,9 +415,9 @@ TEST(PartTracker, FallingPipeIsFollowed) {
   const Mesh mesh = parts::byName("pipe");
   const Pose T0 = scene::restingPose(mesh, -0.03, 0.0, 0.0, 0.0, 0.0);
   const Eigen::AlignedBox3d box = bounds(transformed(mesh, T0));
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& v : mesh.vertices) centroid += T0 * v / static_cast<double>(mesh.vertices.size());
-  const Eigen::Vector3d pivot(centroid.x(), centroid.y(), box.min().z());
+  Eigen::Vector3d middle = Eigen::Vector3d::Zero();  // of its vertices
+  for (const Eigen::Vector3d& v : mesh.vertices) middle += T0 * v / static_cast<double>(mesh.vertices.size());
+  const Eigen::Vector3d pivot(middle.x(), middle.y(), box.min().z());
   const double powder_z = scene::powderHeightFor(mesh, T0, 1.0);
   std::mt19937 rng(21);
   std::vector<Pose> truth;
