@@ -333,8 +333,10 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   const Surface scan_surface{crop_, crop_normals_, grid, &scan_pulls_};
   const bool filter = config_.filter.data_inflation > 0;
   const PosePrior prior = filter ? predicted() : PosePrior{};
-  const RegistrationResult reg = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
-                                                  T_cell_part_, max_distance, config_.icp, filter ? &prior : nullptr);
+  FirstMatches first;  // the check's fit below starts where this one does
+  const RegistrationResult reg =
+      registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface, T_cell_part_, max_distance,
+                       config_.icp, filter ? &prior : nullptr, &first);
   r.timing.icp_ms = msSince(t0);
   r.iterations = reg.iterations;
   r.fitness = reg.rms;
@@ -359,7 +361,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     unchecked_frames_ = 0;
     t0 = Clock::now();
     const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
-                                                     T_cell_part_, max_distance, config_.icp, nullptr);
+                                                     T_cell_part_, max_distance, config_.icp, nullptr, &first);
     reset = restartFilter(reg, free, prior.information);
     r.checked = true;
     r.reset = reset;

@@ -78,12 +78,6 @@ struct LinearSystem {
   double sum_r2 = 0;  ///< template matches' point-to-plane residuals, unweighted (RMS)
 };
 
-/// A pair: template point `i` and scan point `j`, found from the template's side or the scan's.
-struct Match {
-  int i, j;
-  bool from_template;
-};
-
 // Geman-McClure weight of a residual r (m) with scale s2 = scale^2; 1 without a kernel.
 double robustWeight(double r, double s2) {
   if (s2 <= 0) return 1.0;
@@ -187,7 +181,7 @@ Pose moved(const Pose& T, const Vector6d& d) {
 }
 
 RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, const Pose& guess, double max_distance,
-                                    const IcpConfig& config, const PosePrior* prior) {
+                                    const IcpConfig& config, const PosePrior* prior, FirstMatches* first) {
   RegistrationResult result;
   const bool guess_ok = guess.matrix().allFinite() && isValidPose(guess, 1e-4);
   if (guess_ok) {
@@ -234,7 +228,13 @@ RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, c
   for (int iteration = 1; iteration <= config.max_iterations; ++iteration) {
     const bool matched_now = stale;
     if (stale) {
-      associate(model, scan, T, max_distance, config, matches);
+      if (iteration == 1 && first && first->filled && first->T.matrix() == T.matrix() &&
+          first->max_distance == max_distance) {
+        matches = first->matches;
+      } else {
+        associate(model, scan, T, max_distance, config, matches);
+        if (iteration == 1 && first) *first = {true, T, max_distance, matches};
+      }
       T_matched = T;
       stale = false;
       ++result.associations;

@@ -204,6 +204,44 @@ TEST(Registration, APriorHoldsWhatTheScanCannotSee) {
   EXPECT_LT(rotErrDeg(r.T_target_source, Pose::Identity()), 1e-3);
 }
 
+// The disagreement check's second fit from the same guess reuses the first fit's first-round
+// matches: with and without a prior it ends exactly where a fresh search ends; from another guess
+// the stored matches are not used (the fit is the fresh one, and they are replaced).
+TEST(Registration, FirstMatchesGiveTheSameFit) {
+  const SurfaceSamples cad = sampleSurface(parts::byName("cup"), 0.004, 1);
+  const Pose T_true = makePoseRpy({0.003, -0.002, 0.001}, 0.03, -0.02, 0.04);
+  const Cloud scan = transformed(cad.points, T_true);
+  Cloud scan_n;
+  for (const auto& n : cad.normals) scan_n.push_back(T_true.linear() * n);
+  const ScanIndex model_index(cad.points, 0.01), scan_index(scan, 0.01);
+  const Surface model{cad.points, cad.normals, model_index}, target{scan, scan_n, scan_index};
+  PosePrior prior;
+  prior.information = Matrix6d::Identity() * 1e4;
+  const IcpConfig config = oneOff(30, 1e-6, 1e-5);
+  for (const Pose& guess : {Pose::Identity(), makePoseRpy({0.001, 0, 0}, 0, 0, 0.01)}) {
+    const RegistrationResult fresh = registerSurfaces(model, target, guess, 0.01, config, nullptr);
+    FirstMatches first;
+    const RegistrationResult filtered = registerSurfaces(model, target, guess, 0.01, config, &prior, &first);
+    ASSERT_TRUE(first.filled);
+    EXPECT_TRUE(first.T.isApprox(guess, 1e-12));
+    const RegistrationResult reused = registerSurfaces(model, target, guess, 0.01, config, nullptr, &first);
+    ASSERT_TRUE(fresh.ok() && filtered.ok() && reused.ok()) << fresh.reason << filtered.reason << reused.reason;
+    EXPECT_TRUE(reused.T_target_source.isApprox(fresh.T_target_source, 1e-12));
+    EXPECT_EQ(reused.iterations, fresh.iterations);
+    EXPECT_EQ(reused.associations, fresh.associations);
+    EXPECT_EQ(reused.correspondences, fresh.correspondences);
+    EXPECT_LT(rotErrDeg(reused.T_target_source, T_true), 0.1);
+  }
+  // Stored at one guess, asked at another: searched again.
+  FirstMatches first;
+  registerSurfaces(model, target, Pose::Identity(), 0.01, config, nullptr, &first);
+  const Pose other = makePoseRpy({0.006, 0, 0}, 0, 0, 0.05);
+  const RegistrationResult fresh = registerSurfaces(model, target, other, 0.01, config, nullptr);
+  const RegistrationResult again = registerSurfaces(model, target, other, 0.01, config, nullptr, &first);
+  EXPECT_TRUE(again.T_target_source.isApprox(fresh.T_target_source, 1e-12));
+  EXPECT_TRUE(first.T.isApprox(other, 1e-12));
+}
+
 // Normals of a noisy plane seen from above point up; seen from below, down.
 TEST(Registration, ScanNormalsFaceTheCamera) {
   Cloud plane;

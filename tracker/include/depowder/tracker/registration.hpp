@@ -50,6 +50,23 @@ struct PosePrior {
                                             ///< residuals are not independent: neighbouring voxels share noise)
 };
 
+/// A pair: template point `i` and scan point `j`, found from the template's side or the scan's.
+struct Match {
+  int i, j;
+  bool from_template;
+};
+
+/// The matches a registration searched at its guess (its first round). A second registration of
+/// the same two surfaces from the same guess, such as the disagreement check's fit without the
+/// filter, starts from them: one search fewer, the same result. Valid for one pair of surfaces
+/// (one frame): the guess and distance are checked, the surfaces are not.
+struct FirstMatches {
+  bool filled = false;
+  Pose T = Pose::Identity();
+  double max_distance = 0;
+  std::vector<Match> matches;
+};
+
 /// The deviation of T from T_prior in PosePrior's coordinates (rad, m).
 Vector6d deviation(const Pose& T, const Pose& T_prior);
 /// T moved by a deviation in PosePrior's coordinates: deviation(moved(T, d), T) = d.
@@ -79,8 +96,11 @@ struct RegistrationResult {
 /// Geman-McClure kernel whose scale adapts to the residuals (3 robust sigmas, never below
 /// config.kernel_scale). Gauss-Newton on the pose, with `prior` (if given) added to the cost.
 /// config.max_correspondence_distance is not read here.
+/// With `first`, the first round's matches are taken from it when it holds those of the same
+/// surfaces, guess and distance, and stored in it otherwise.
 RegistrationResult registerSurfaces(const Surface& model, const Surface& scan, const Pose& guess, double max_distance,
-                                    const IcpConfig& config, const PosePrior* prior = nullptr);
+                                    const IcpConfig& config, const PosePrior* prior = nullptr,
+                                    FirstMatches* first = nullptr);
 
 /// Same, indexing both clouds itself (tests, one-off registrations).
 RegistrationResult registerSurfaces(const Cloud& model, const Cloud& model_normals, const Cloud& scan,
