@@ -62,6 +62,9 @@ const char* kUsage =
     "  --probe N              moving: every N frames, a tracker without the filter started at the true pose fits\n"
     "                         that frame's scan 4 times; how far it ends from the truth shows how well the scan\n"
     "                         alone pins the part (printed, and probe_* in the JSON)\n"
+    "  --motion-oracle full|planar  moving: a diagnostic no cell has: each tracker is told the part's true motion\n"
+    "                         since the last frame (planar: only its turn about the vertical and its slide),\n"
+    "                         which bounds what a motion model could add\n"
     "  --push-offset F        moving, report: the push line passes the part's centre sideways by up to F x its\n"
     "                         xy diagonal (seeded; default 0.25): larger turns the part more\n"
     "  --set KEY=VALUE        a tracker setting for every method (e.g. filter.data_inflation=0); repeatable\n"
@@ -103,6 +106,7 @@ struct Args {
   double duration = 0;
   bool quiet = false, no_nozzle = false, self_filter = false;
   int probe = 0;                                     ///< moving: --probe N
+  std::string motion_oracle;                         ///< moving: --motion-oracle full|planar
   double push_offset = -1;                           ///< moving: --push-offset F (< 0: the default)
   std::vector<std::pair<std::string, double>> sets;  ///< --set key=value
   std::string command_line;                          ///< as typed, for the report
@@ -157,6 +161,9 @@ Args parse(int argc, char** argv) {
       if (!(n >= 1 && n <= 10000 && n == std::floor(n)))
         throw std::invalid_argument("--probe must be an integer 1..10000 (frames)");
       a.probe = static_cast<int>(n);
+    } else if (f == "--motion-oracle") {
+      if (v != "full" && v != "planar") throw std::invalid_argument("--motion-oracle: full or planar, got '" + v + "'");
+      a.motion_oracle = v;
     } else if (f == "--push-offset") {
       a.push_offset = number(f, v);
       if (!(a.push_offset >= 0 && a.push_offset <= 0.5))
@@ -202,6 +209,7 @@ Args parse(int argc, char** argv) {
   if (!a.mesh.empty() && !a.parts.empty()) throw std::invalid_argument("give --part or --mesh, not both");
   if (a.self_filter && a.command == "speed") throw std::invalid_argument("--self-filter: speed has no nozzle");
   if (a.probe > 0 && a.command != "moving") throw std::invalid_argument("--probe is for moving");
+  if (!a.motion_oracle.empty() && a.command != "moving") throw std::invalid_argument("--motion-oracle is for moving");
   if (a.push_offset >= 0 && a.command != "moving" && a.command != "report")
     throw std::invalid_argument("--push-offset is for moving and report");
   if (a.self_filter && a.no_nozzle) throw std::invalid_argument("--self-filter needs the nozzle (not --no-nozzle)");
@@ -270,6 +278,7 @@ MovingOptions movingOptions(const Args& a, int trials) {
   if (trials > 0) o.trials = trials;
   o.self_filter = a.self_filter;
   o.probe_every = a.probe;
+  o.motion_oracle = a.motion_oracle;
   if (a.push_offset >= 0) o.max_offset_fraction = a.push_offset;
   o.seed = a.seed;
   return o;

@@ -14,6 +14,23 @@
 #include "experiment_util.hpp"
 
 namespace depowder::eval {
+namespace {
+
+// MovingOptions::motion_oracle: the part's true motion from T_a to T_b (cell frame), all of it or
+// only its turn about the vertical through the part's origin and its horizontal slide.
+Pose trueMotion(const Pose& T_a, const Pose& T_b, bool planar) {
+  const Pose delta = T_b * T_a.inverse(Eigen::Isometry);
+  if (!planar) return delta;
+  const Eigen::Matrix3d& R = delta.linear();
+  const double turn = std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1));  // its rotation's part about z
+  const Eigen::Vector3d a = T_a.translation(), b = T_b.translation();
+  Pose out = Pose::Identity();
+  out.linear() = Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  out.translation() = Eigen::Vector3d(b.x(), b.y(), a.z()) - out.linear() * a;  // a -> b in x and y
+  return out;
+}
+
+}  // namespace
 
 MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const MovingOptions& o, const RunControl& control) {
@@ -98,6 +115,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       bool cut = false;
       double min_eta = eta0;
       int f = 0;
+      Pose T_true_last = T0;
       for (; f < max_frames && push.phase() != sim::PushPhase::kDone; ++f) {
         if (control.stopped()) {
           cut = true;
@@ -115,6 +133,11 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         const Cloud scan = source.capture(world, filtered ? &arm.T_cell_nozzle : nullptr);
         const sim::PartTruth truth = world.partTruth(0);
         min_eta = std::min(min_eta, truth.eta);
+        if (!o.motion_oracle.empty()) {
+          const Pose delta = trueMotion(T_true_last, truth.T_cell_part, o.motion_oracle == "planar");
+          for (tracker::PartTracker& t : trackers) t.predictMotion(delta);
+        }
+        T_true_last = truth.T_cell_part;
         for (std::size_t m = 0; m < methods.size(); ++m) {
           const tracker::TrackResult tr = trackers[m].track(scan);
           last[m] = tr.T_cell_part;
@@ -200,6 +223,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   opt.set("dig_path", o.dig_path);
   opt.set("self_filter", o.self_filter);
   opt.set("probe_every", o.probe_every);
+  if (!o.motion_oracle.empty()) opt.set("motion_oracle", o.motion_oracle);
   opt.set("probe_fits", o.probe_fits);
   opt.set("contact_band", o.contact_band);
   opt.set("max_offset_fraction", o.max_offset_fraction);

@@ -75,6 +75,14 @@ class PartTracker {
   /// config.viewpoints: with a camera silent, template points only it could see are left out.
   TrackResult track(const Cloud& scan, const std::vector<Point>& viewpoints);
 
+  /// The part is known to move by `delta` (a rigid motion, cell frame) before the next frame:
+  /// that frame's fit starts from the pose so moved, and the filter predicts it there (before
+  /// Phase 1 ends, the initial pose moves). Calls add up. Throws std::invalid_argument for a
+  /// delta that is not a finite rigid motion. Nothing in the cell calls it: the evaluation's
+  /// motion oracle (`depowder-eval moving --motion-oracle`) gives it the true motion, which
+  /// bounds what a motion model could add to the tracker.
+  void predictMotion(const Pose& delta);
+
   const std::string& name() const { return name_; }
   Method method() const { return config_.method; }
   double xi() const { return xi_; }
@@ -106,7 +114,9 @@ class PartTracker {
 
   // Tracking state (Alg. 1).
   bool started_ = false;
-  Pose T_cell_part_;                              ///< T_i
+  Pose T_cell_part_;                          ///< T_i
+  Pose predicted_motion_ = Pose::Identity();  ///< predictMotion's, applied at the next frame
+  bool has_predicted_motion_ = false;
   double eta_ = 0;                                ///< last estimate
   UpdateReference last_update_;                   ///< R_last, t_last, eta_last
   Indices template_;                              ///< P_tmpl

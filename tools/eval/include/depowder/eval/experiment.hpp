@@ -143,6 +143,11 @@ struct MovingOptions {
   /// probe_fits times; its distance from the truth then is a probe.
   int probe_every = 0;
   int probe_fits = 4;
+  /// A diagnostic no cell has: before each frame, every tracker is told the part's true motion
+  /// since the last frame (PartTracker::predictMotion), all of it ("full") or only its turn about
+  /// the vertical and its horizontal slide ("planar": what a model of planar pushing driven by
+  /// the nozzle's path could predict at best). What is still lost then is lost by the scan.
+  std::string motion_oracle;     ///< "" (none), "full" or "planar"
   double success_rot_deg = 15;   ///< Table II: final error within 15 deg...
   double success_trans = 0.015;  ///< ... and 15 mm
   double bottom_z = 0.03;
