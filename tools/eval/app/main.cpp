@@ -65,6 +65,7 @@ const char* kUsage =
     "  --motion-oracle full|planar  moving: a diagnostic no cell has: each tracker is told the part's true motion\n"
     "                         since the last frame (planar: only its turn about the vertical and its slide),\n"
     "                         which bounds what a motion model could add\n"
+    "  --oracle-fraction F    moving: the motion told is F x the true one (turn angle and slide; default 1)\n"
     "  --push-offset F        moving, report: the push line passes the part's centre sideways by up to F x its\n"
     "                         xy diagonal (seeded; default 0.25): larger turns the part more\n"
     "  --set KEY=VALUE        a tracker setting for every method (e.g. filter.data_inflation=0); repeatable\n"
@@ -107,6 +108,7 @@ struct Args {
   bool quiet = false, no_nozzle = false, self_filter = false;
   int probe = 0;                                     ///< moving: --probe N
   std::string motion_oracle;                         ///< moving: --motion-oracle full|planar
+  double oracle_fraction = -1;                       ///< moving: --oracle-fraction F (< 0: not given)
   double push_offset = -1;                           ///< moving: --push-offset F (< 0: the default)
   std::vector<std::pair<std::string, double>> sets;  ///< --set key=value
   std::string command_line;                          ///< as typed, for the report
@@ -164,6 +166,10 @@ Args parse(int argc, char** argv) {
     } else if (f == "--motion-oracle") {
       if (v != "full" && v != "planar") throw std::invalid_argument("--motion-oracle: full or planar, got '" + v + "'");
       a.motion_oracle = v;
+    } else if (f == "--oracle-fraction") {
+      a.oracle_fraction = number(f, v);
+      if (!(a.oracle_fraction >= 0 && a.oracle_fraction <= 2))
+        throw std::invalid_argument("--oracle-fraction must be in [0, 2]");
     } else if (f == "--push-offset") {
       a.push_offset = number(f, v);
       if (!(a.push_offset >= 0 && a.push_offset <= 0.5))
@@ -210,6 +216,8 @@ Args parse(int argc, char** argv) {
   if (a.self_filter && a.command == "speed") throw std::invalid_argument("--self-filter: speed has no nozzle");
   if (a.probe > 0 && a.command != "moving") throw std::invalid_argument("--probe is for moving");
   if (!a.motion_oracle.empty() && a.command != "moving") throw std::invalid_argument("--motion-oracle is for moving");
+  if (a.oracle_fraction >= 0 && a.motion_oracle.empty())
+    throw std::invalid_argument("--oracle-fraction goes with --motion-oracle");
   if (a.push_offset >= 0 && a.command != "moving" && a.command != "report")
     throw std::invalid_argument("--push-offset is for moving and report");
   if (a.self_filter && a.no_nozzle) throw std::invalid_argument("--self-filter needs the nozzle (not --no-nozzle)");
@@ -279,6 +287,7 @@ MovingOptions movingOptions(const Args& a, int trials) {
   o.self_filter = a.self_filter;
   o.probe_every = a.probe;
   o.motion_oracle = a.motion_oracle;
+  if (a.oracle_fraction >= 0) o.motion_oracle_fraction = a.oracle_fraction;
   if (a.push_offset >= 0) o.max_offset_fraction = a.push_offset;
   o.seed = a.seed;
   return o;

@@ -17,16 +17,20 @@ namespace depowder::eval {
 namespace {
 
 // MovingOptions::motion_oracle: the part's true motion from T_a to T_b (cell frame), all of it or
-// only its turn about the vertical through the part's origin and its horizontal slide.
-Pose trueMotion(const Pose& T_a, const Pose& T_b, bool planar) {
-  const Pose delta = T_b * T_a.inverse(Eigen::Isometry);
-  if (!planar) return delta;
-  const Eigen::Matrix3d& R = delta.linear();
-  const double turn = std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1));  // its rotation's part about z
-  const Eigen::Vector3d a = T_a.translation(), b = T_b.translation();
-  Pose out = Pose::Identity();
-  out.linear() = Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  out.translation() = Eigen::Vector3d(b.x(), b.y(), a.z()) - out.linear() * a;  // a -> b in x and y
+// only its turn about the vertical through the part's origin and its horizontal slide; scaled to
+// `fraction` of its turn's angle and of its origin's displacement.
+Pose trueMotion(const Pose& T_a, const Pose& T_b, bool planar, double fraction) {
+  const Eigen::Matrix3d R = T_b.linear() * T_a.linear().transpose();
+  const Eigen::Vector3d a = T_a.translation();
+  Eigen::Vector3d b = T_b.translation();
+  Eigen::AngleAxisd turn(R);
+  if (planar) {
+    turn = Eigen::AngleAxisd(std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1)), Eigen::Vector3d::UnitZ());
+    b.z() = a.z();
+  }
+  Pose out = Pose::Identity();  // about the part's origin a: a -> a + fraction (b - a)
+  out.linear() = Eigen::AngleAxisd(fraction * turn.angle(), turn.axis()).toRotationMatrix();
+  out.translation() = a + fraction * (b - a) - out.linear() * a;
   return out;
 }
 
@@ -134,7 +138,8 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         const sim::PartTruth truth = world.partTruth(0);
         min_eta = std::min(min_eta, truth.eta);
         if (!o.motion_oracle.empty()) {
-          const Pose delta = trueMotion(T_true_last, truth.T_cell_part, o.motion_oracle == "planar");
+          const Pose delta =
+              trueMotion(T_true_last, truth.T_cell_part, o.motion_oracle == "planar", o.motion_oracle_fraction);
           for (tracker::PartTracker& t : trackers) t.predictMotion(delta);
         }
         T_true_last = truth.T_cell_part;
@@ -223,7 +228,10 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   opt.set("dig_path", o.dig_path);
   opt.set("self_filter", o.self_filter);
   opt.set("probe_every", o.probe_every);
-  if (!o.motion_oracle.empty()) opt.set("motion_oracle", o.motion_oracle);
+  if (!o.motion_oracle.empty()) {
+    opt.set("motion_oracle", o.motion_oracle);
+    opt.set("motion_oracle_fraction", o.motion_oracle_fraction);
+  }
   opt.set("probe_fits", o.probe_fits);
   opt.set("contact_band", o.contact_band);
   opt.set("max_offset_fraction", o.max_offset_fraction);

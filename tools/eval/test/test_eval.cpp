@@ -484,7 +484,8 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
         " static --set icp.nothing=1", " frobnicate", " speed --trace /dev/null", " speed --self-filter",
         " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0", " static --push-offset 0.1",
         " moving --push-offset 0.9", " static --cell no-such-cell.yaml", " static --motion-oracle full",
-        " moving --motion-oracle exact"}) {
+        " moving --motion-oracle exact", " moving --oracle-fraction 0.5",
+        " moving --motion-oracle full --oracle-fraction 3"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }
