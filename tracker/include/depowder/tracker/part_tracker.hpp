@@ -76,11 +76,11 @@ class PartTracker {
   TrackResult track(const Cloud& scan, const std::vector<Point>& viewpoints);
 
   /// The part is known to move by `delta` (a rigid motion, cell frame) before the next frame:
-  /// that frame's fit starts from the pose so moved, and the filter predicts it there (before
-  /// Phase 1 ends, the initial pose moves). Calls add up. Throws std::invalid_argument for a
-  /// delta that is not a finite rigid motion. Nothing in the cell calls it: the evaluation's
-  /// motion oracle (`depowder-eval moving --motion-oracle`) gives it the true motion, which
-  /// bounds what a motion model could add to the tracker.
+  /// that frame's fit starts from the pose so moved, and the filter predicts it there with the
+  /// information it had (before Phase 1 ends, the initial pose moves). Calls add up. Throws
+  /// std::invalid_argument for a delta that is not a finite rigid motion. Nothing in the cell
+  /// calls it: the evaluation's motion oracle (`depowder-eval moving --motion-oracle`) gives it
+  /// the true motion, which bounds what a motion model could add to the tracker.
   void predictMotion(const Pose& delta);
 
   const std::string& name() const { return name_; }

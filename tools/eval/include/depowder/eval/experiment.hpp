@@ -146,12 +146,12 @@ struct MovingOptions {
   /// A diagnostic no cell has: before each frame, every tracker is told the part's true motion
   /// since the last frame (PartTracker::predictMotion), all of it ("full") or only its turn about
   /// the vertical and its horizontal slide ("planar": what a model of planar pushing driven by
-  /// the nozzle's path could predict at best). What is still lost then is lost by the scan.
-  std::string motion_oracle;  ///< "" (none), "full" or "planar"
-  double motion_oracle_fraction =
-      1;                         ///< the motion told, as a fraction of the true one (a model that predicts part of it)
-  double success_rot_deg = 15;   ///< Table II: final error within 15 deg...
-  double success_trans = 0.015;  ///< ... and 15 mm
+  /// the nozzle's path could predict at best), scaled by motion_oracle_fraction (a model that
+  /// predicts part of the motion). A push lost then is lost by the fits and the filter.
+  std::string motion_oracle;          ///< "" (none), "full" or "planar"
+  double motion_oracle_fraction = 1;  ///< of the true turn angle and slide
+  double success_rot_deg = 15;        ///< Table II: final error within 15 deg...
+  double success_trans = 0.015;       ///< ... and 15 mm
   double bottom_z = 0.03;
   std::uint32_t seed = 1;
 };
