@@ -14,27 +14,6 @@
 #include "experiment_util.hpp"
 
 namespace depowder::eval {
-namespace {
-
-// MovingOptions::motion_oracle: the part's true motion from T_a to T_b (cell frame), all of it or
-// only its turn about the vertical through the part's origin and its horizontal slide; scaled to
-// `fraction` of its turn's angle and of its origin's displacement.
-Pose trueMotion(const Pose& T_a, const Pose& T_b, bool planar, double fraction) {
-  const Eigen::Matrix3d R = T_b.linear() * T_a.linear().transpose();
-  const Eigen::Vector3d a = T_a.translation();
-  Eigen::Vector3d b = T_b.translation();
-  Eigen::AngleAxisd turn(R);
-  if (planar) {
-    turn = Eigen::AngleAxisd(std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1)), Eigen::Vector3d::UnitZ());
-    b.z() = a.z();
-  }
-  Pose out = Pose::Identity();  // about the part's origin a: a -> a + fraction (b - a)
-  out.linear() = Eigen::AngleAxisd(fraction * turn.angle(), turn.axis()).toRotationMatrix();
-  out.translation() = a + fraction * (b - a) - out.linear() * a;
-  return out;
-}
-
-}  // namespace
 
 MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const MovingOptions& o, const RunControl& control) {
@@ -139,7 +118,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         min_eta = std::min(min_eta, truth.eta);
         if (!o.motion_oracle.empty()) {
           const Pose delta =
-              trueMotion(T_true_last, truth.T_cell_part, o.motion_oracle == "planar", o.motion_oracle_fraction);
+              oracleMotion(T_true_last, truth.T_cell_part, o.motion_oracle == "planar", o.motion_oracle_fraction);
           for (tracker::PartTracker& t : trackers) t.predictMotion(delta);
         }
         T_true_last = truth.T_cell_part;
@@ -271,6 +250,21 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   }
   doc.set("rows", std::move(rows));
   return doc;
+}
+
+Pose oracleMotion(const Pose& T_a, const Pose& T_b, bool planar, double fraction) {
+  const Eigen::Matrix3d R = T_b.linear() * T_a.linear().transpose();
+  const Eigen::Vector3d a = T_a.translation();
+  Eigen::Vector3d b = T_b.translation();
+  Eigen::AngleAxisd turn(R);
+  if (planar) {
+    turn = Eigen::AngleAxisd(std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1)), Eigen::Vector3d::UnitZ());
+    b.z() = a.z();
+  }
+  Pose out = Pose::Identity();  // about the part's origin a: a -> a + fraction (b - a)
+  out.linear() = Eigen::AngleAxisd(fraction * turn.angle(), turn.axis()).toRotationMatrix();
+  out.translation() = a + fraction * (b - a) - out.linear() * a;
+  return out;
 }
 
 }  // namespace depowder::eval

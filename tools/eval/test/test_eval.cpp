@@ -492,6 +492,32 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
 }
 
 #ifdef DEPOWDER_EVAL_MOVING
+// --motion-oracle's motion: all of it takes T_a to T_b; the planar part keeps T_a's height and
+// tilt and turns it about the vertical by the motion's turn about z; a fraction scales both.
+TEST(EvalMoving, OracleMotionIsTheTrueMotionOrItsPlanarPart) {
+  const Pose T_a = makePoseRpy({0.05, -0.02, 0.03}, 0.1, -0.05, 0.4);
+  const Eigen::Matrix3d turn =
+      (Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  Pose T_b = T_a;
+  T_b.linear() = turn * T_a.linear();
+  T_b.translation() += Eigen::Vector3d(0.01, 0.004, -0.003);
+  const Pose full = oracleMotion(T_a, T_b, false, 1.0) * T_a;
+  EXPECT_TRUE(full.isApprox(T_b, 1e-12));
+  const Pose planar = oracleMotion(T_a, T_b, true, 1.0) * T_a;
+  EXPECT_NEAR(planar.translation().x(), T_b.translation().x(), 1e-12);
+  EXPECT_NEAR(planar.translation().y(), T_b.translation().y(), 1e-12);
+  EXPECT_NEAR(planar.translation().z(), T_a.translation().z(), 1e-12);
+  const Eigen::AngleAxisd planar_turn(planar.linear() * T_a.linear().transpose());
+  EXPECT_NEAR(std::abs(planar_turn.axis().z()), 1.0, 1e-9);  // about the vertical only
+  const Eigen::Matrix3d& R = turn;
+  EXPECT_NEAR(planar_turn.angle(), std::abs(std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1))), 1e-9);
+  const Pose half = oracleMotion(T_a, T_b, false, 0.5) * T_a;
+  EXPECT_TRUE(half.translation().isApprox(0.5 * (T_a.translation() + T_b.translation()), 1e-12));
+  EXPECT_NEAR(rotationAngle(half.linear(), T_a.linear()), 0.5 * rotationAngle(T_b.linear(), T_a.linear()), 1e-12);
+  EXPECT_TRUE(oracleMotion(T_a, T_b, false, 0.0).isApprox(Pose::Identity(), 1e-12));
+}
+
 TEST(EvalMoving, ShortPushShapeAndBounds) {
   const EvalCell cell = testCell();
   MovingOptions o;

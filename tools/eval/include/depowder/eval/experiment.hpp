@@ -209,6 +209,10 @@ MovingResult runMoving(const EvalCell& cell, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const MovingOptions& options,
                        const RunControl& control = {});
 Json toJson(const MovingResult& result, const MovingOptions& options);
+/// MovingOptions::motion_oracle's motion from pose T_a to T_b (cell frame), about the part's
+/// origin: all of it, or (planar) only its turn about the vertical and its horizontal slide;
+/// `fraction` of its turn angle and of its origin's displacement.
+Pose oracleMotion(const Pose& T_a, const Pose& T_b, bool planar, double fraction);
 
 /// {"experiment": "static", "seed", "interrupted", "options", "rows": [...]} (keys of each row
 /// as the issue lists them, plus the extra figures above).
