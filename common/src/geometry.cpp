@@ -10,6 +10,8 @@ double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return std::acos(std::clamp(c, -1.0, 1.0));
 }
 
+double turnAboutVertical(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1)); }
+
 double rotationDistanceDeg(const Pose& a, const Pose& b) {
   return rotationAngle(a.linear(), b.linear()) * 180.0 / M_PI;
 }

@@ -15,6 +15,16 @@ TEST(Geometry, RotationAngleOfKnownRotation) {
   EXPECT_NEAR(rotationAngle(b.linear(), b.linear()), 0.0, 1e-7);
 }
 
+// A turn about z comes back whole, on either side of pi; a tip added to it changes it little.
+TEST(Geometry, TurnAboutVerticalOfKnownRotations) {
+  for (const double a : {0.0, 0.3, -1.2, 2.9, -3.0})
+    EXPECT_NEAR(turnAboutVertical(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix()), a, 1e-12);
+  const Eigen::Matrix3d tipped =
+      (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  EXPECT_NEAR(turnAboutVertical(tipped), 0.5, 0.01);
+}
+
 TEST(Geometry, ValidPoseRejectsNanAndShear) {
   Pose p = makePoseRpy({1, 2, 3}, 0.1, 0.2, 0.3);
   EXPECT_TRUE(isValidPose(p));

@@ -227,7 +227,7 @@ bool segmentAndEstimate(const PosedPart& g, const Cloud& scan, double xi, const 
 bool planarMotion(const Cloud& then, const Cloud& now, const Eigen::Matrix3d& R_delta, double tolerance,
                   Eigen::Isometry2d& now_to_then) {
   if (then.size() != now.size() || now.empty()) return false;
-  const Eigen::Rotation2Dd turn(std::atan2(R_delta(1, 0) - R_delta(0, 1), R_delta(0, 0) + R_delta(1, 1)));
+  const Eigen::Rotation2Dd turn(turnAboutVertical(R_delta));
   Eigen::Vector2d c_then = Eigen::Vector2d::Zero(), c_now = Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < now.size(); ++i) c_then += then[i].head<2>(), c_now += now[i].head<2>();
   c_then /= static_cast<double>(then.size());

@@ -14,6 +14,10 @@ using Cloud = std::vector<Point>;
 /// Angle of the relative rotation a^T b, radians in [0, pi].
 double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 
+/// The turn about the vertical (z) of a rotation, radians in (-pi, pi]: the angle of its upper-left
+/// 2x2 block's nearest rotation (exact for a rotation about z; a tip does not change it much).
+double turnAboutVertical(const Eigen::Matrix3d& R);
+
 /// Angle of the relative rotation of two poses, degrees in [0, 180].
 double rotationDistanceDeg(const Pose& a, const Pose& b);
 

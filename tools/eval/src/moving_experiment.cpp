@@ -258,7 +258,7 @@ Pose oracleMotion(const Pose& T_a, const Pose& T_b, bool planar, double fraction
   Eigen::Vector3d b = T_b.translation();
   Eigen::AngleAxisd turn(R);
   if (planar) {
-    turn = Eigen::AngleAxisd(std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1)), Eigen::Vector3d::UnitZ());
+    turn = Eigen::AngleAxisd(turnAboutVertical(R), Eigen::Vector3d::UnitZ());
     b.z() = a.z();
   }
   Pose out = Pose::Identity();  // about the part's origin a: a -> a + fraction (b - a)
