@@ -244,17 +244,13 @@ void PartTracker::predictMotion(const Pose& delta) {
   if (!delta.matrix().allFinite() || !isValidPose(delta, 1e-6))
     throw std::invalid_argument("part '" + name_ + "': a predicted motion must be a finite rigid transform");
   predicted_motion_ = delta * predicted_motion_;
-  has_predicted_motion_ = true;
 }
 
 TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& viewpoints) {
   const Clock::time_point t_start = Clock::now();
-  if (has_predicted_motion_) {  // predictMotion
-    T_cell_part_ = predicted_motion_ * T_cell_part_;
-    if (!started_) T_cell_part_init_ = T_cell_part_;  // the same pose until Phase 1 ends
-    predicted_motion_ = Pose::Identity();
-    has_predicted_motion_ = false;
-  }
+  T_cell_part_ = predicted_motion_ * T_cell_part_;  // predictMotion's (the identity leaves it bit for bit)
+  if (!started_) T_cell_part_init_ = T_cell_part_;  // the same pose until Phase 1 ends
+  predicted_motion_ = Pose::Identity();
   TrackResult r;
   r.T_cell_part = T_cell_part_;
   r.eta = eta_;

@@ -114,9 +114,8 @@ class PartTracker {
 
   // Tracking state (Alg. 1).
   bool started_ = false;
-  Pose T_cell_part_;                          ///< T_i
-  Pose predicted_motion_ = Pose::Identity();  ///< predictMotion's, applied at the next frame
-  bool has_predicted_motion_ = false;
+  Pose T_cell_part_;                              ///< T_i
+  Pose predicted_motion_ = Pose::Identity();      ///< predictMotion's, applied at the next frame
   double eta_ = 0;                                ///< last estimate
   UpdateReference last_update_;                   ///< R_last, t_last, eta_last
   Indices template_;                              ///< P_tmpl
