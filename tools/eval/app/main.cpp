@@ -68,6 +68,8 @@ const char* kUsage =
     "  --oracle-fraction F    moving: the motion told is F x the true one (turn angle and slide; default 1)\n"
     "  --push-offset F        moving, report: the push line passes the part's centre sideways by up to F x its\n"
     "                         xy diagonal (seeded; default 0.25): larger turns the part more\n"
+    "  --push-speed V         moving, report: the nozzle pushes at V m/s (default 0.02); the time limit grows so\n"
+    "                         that it may travel as far as at the default\n"
     "  --set KEY=VALUE        a tracker setting for every method (e.g. filter.data_inflation=0); repeatable\n"
     "  --quiet                no progress bar\n";
 
@@ -110,6 +112,7 @@ struct Args {
   std::string motion_oracle;                         ///< moving: --motion-oracle full|planar
   double oracle_fraction = -1;                       ///< moving: --oracle-fraction F (< 0: not given)
   double push_offset = -1;                           ///< moving: --push-offset F (< 0: the default)
+  double push_speed = -1;                            ///< moving: --push-speed V (< 0: the default)
   std::vector<std::pair<std::string, double>> sets;  ///< --set key=value
   std::string command_line;                          ///< as typed, for the report
 };
@@ -174,6 +177,10 @@ Args parse(int argc, char** argv) {
       a.push_offset = number(f, v);
       if (!(a.push_offset >= 0 && a.push_offset <= 0.5))
         throw std::invalid_argument("--push-offset must be in [0, 0.5] (a fraction of the part's xy diagonal)");
+    } else if (f == "--push-speed") {
+      a.push_speed = number(f, v);
+      if (!(a.push_speed >= 0.002 && a.push_speed <= 0.2))
+        throw std::invalid_argument("--push-speed must be in [0.002, 0.2] m/s");
     } else if (f == "--seed") {
       const double s = number(f, v);
       if (!(s >= 0 && s <= 4294967295.0 && s == std::floor(s)))
@@ -220,6 +227,8 @@ Args parse(int argc, char** argv) {
     throw std::invalid_argument("--oracle-fraction goes with --motion-oracle");
   if (a.push_offset >= 0 && a.command != "moving" && a.command != "report")
     throw std::invalid_argument("--push-offset is for moving and report");
+  if (a.push_speed >= 0 && a.command != "moving" && a.command != "report")
+    throw std::invalid_argument("--push-speed is for moving and report");
   if (a.self_filter && a.no_nozzle) throw std::invalid_argument("--self-filter needs the nozzle (not --no-nozzle)");
   if (!a.mesh.empty() && a.xi <= 0) throw std::invalid_argument("--mesh needs --xi (m)");
   if (a.mesh.empty() && a.xi > 0 && a.parts.empty()) throw std::invalid_argument("--xi goes with --mesh");
@@ -289,6 +298,10 @@ MovingOptions movingOptions(const Args& a, int trials) {
   o.motion_oracle = a.motion_oracle;
   if (a.oracle_fraction >= 0) o.motion_oracle_fraction = a.oracle_fraction;
   if (a.push_offset >= 0) o.max_offset_fraction = a.push_offset;
+  if (a.push_speed >= 0) {
+    o.max_duration *= std::max(1.0, o.push_speed / a.push_speed);  // as far a travel as at the default
+    o.push_speed = a.push_speed;
+  }
   o.seed = a.seed;
   return o;
 }

@@ -347,12 +347,13 @@ std::string movingSection(const Json& doc, const std::string& note) {
   // Rows carry their mean initial visibility; look them up by part and method only.
   std::map<std::pair<std::string, std::string>, const Json*> by;
   for (const Json& r : doc.at("rows").elements()) by[{r.at("part").string(), r.at("method").string()}] = &r;
+  const double push_cm_s = opt.at("push_speed_m_s").number() * 100;
   md << "Each cell: **ours** (paper). " << opt.at("trials").number()
      << " seeded pushes per part: a contact point on the part (azimuth, a height within "
      << fmt(50 * (opt.has("contact_band") ? opt.at("contact_band").number() : std::nan("")), 0)
      << " % of the part's height of its centre of mass's, sideways offset) and an initial visibility in ["
      << pct(opt.at("min_visibility").number()) << ", " << pct(opt.at("max_visibility").number())
-     << "]; the nozzle pushes at " << fmt(opt.at("push_speed_m_s").number() * 100, 0)
+     << "]; the nozzle pushes at " << fmt(push_cm_s, push_cm_s == std::round(push_cm_s) ? 0 : 1)
      << " cm/s until the part reaches the box wall (sim/push.hpp, rigid-body physics). Success: final error within "
      << fmt(opt.at("success_rot_deg").number(), 0) << " deg and " << fmt(opt.at("success_trans_m").number() * 1000, 0)
      << " mm. Overall: the mean of the parts, with in brackets the 95 % Wilson interval of the rate over all their"

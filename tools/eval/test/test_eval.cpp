@@ -485,7 +485,8 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
         " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0", " static --push-offset 0.1",
         " moving --push-offset 0.9", " static --cell no-such-cell.yaml", " static --motion-oracle full",
         " moving --motion-oracle exact", " moving --oracle-fraction 0.5",
-        " moving --motion-oracle full --oracle-fraction 3"}) {
+        " moving --motion-oracle full --oracle-fraction 3", " static --push-speed 0.01", " moving --push-speed 0",
+        " moving --push-speed 1"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
   }
