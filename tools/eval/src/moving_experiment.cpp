@@ -21,6 +21,9 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
   EvalCell cell = cell_in;
   cell.sim.physics.enabled = true;
   const int max_frames = static_cast<int>(std::lround(o.max_duration * cell.fps));
+  const MotionPart oracle_part = o.motion_oracle == "planar" ? MotionPart::kPlanar
+                                 : o.motion_oracle == "tip"  ? MotionPart::kTip
+                                                             : MotionPart::kFull;
   const double total = static_cast<double>(parts.size()) * o.trials * max_frames;
   double done = 0;
   for (const EvalPart& part : parts) {
@@ -118,7 +121,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         min_eta = std::min(min_eta, truth.eta);
         if (!o.motion_oracle.empty()) {
           const Pose delta =
-              oracleMotion(T_true_last, truth.T_cell_part, o.motion_oracle == "planar", o.motion_oracle_fraction);
+              oracleMotion(T_true_last, truth.T_cell_part, oracle_part, o.motion_oracle_fraction);
           for (tracker::PartTracker& t : trackers) t.predictMotion(delta);
         }
         T_true_last = truth.T_cell_part;
@@ -252,14 +255,19 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   return doc;
 }
 
-Pose oracleMotion(const Pose& T_a, const Pose& T_b, bool planar, double fraction) {
+Pose oracleMotion(const Pose& T_a, const Pose& T_b, MotionPart part, double fraction) {
   const Eigen::Matrix3d R = T_b.linear() * T_a.linear().transpose();
   const Eigen::Vector3d a = T_a.translation();
   Eigen::Vector3d b = T_b.translation();
+  const Eigen::Matrix3d planar_turn =
+      Eigen::AngleAxisd(turnAboutVertical(R), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   Eigen::AngleAxisd turn(R);
-  if (planar) {
-    turn = Eigen::AngleAxisd(turnAboutVertical(R), Eigen::Vector3d::UnitZ());
+  if (part == MotionPart::kPlanar) {
+    turn = Eigen::AngleAxisd(planar_turn);
     b.z() = a.z();
+  } else if (part == MotionPart::kTip) {
+    turn = Eigen::AngleAxisd(Eigen::Matrix3d(R * planar_turn.transpose()));  // R = tip x planar turn
+    b.head<2>() = a.head<2>();
   }
   Pose out = Pose::Identity();  // about the part's origin a: a -> a + fraction (b - a)
   out.linear() = Eigen::AngleAxisd(fraction * turn.angle(), turn.axis()).toRotationMatrix();

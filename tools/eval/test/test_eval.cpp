@@ -484,7 +484,7 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
         " static --set icp.nothing=1", " frobnicate", " speed --trace /dev/null", " speed --self-filter",
         " static --no-nozzle --self-filter", " static --probe 5", " moving --probe 0", " static --push-offset 0.1",
         " moving --push-offset 0.9", " static --cell no-such-cell.yaml", " static --motion-oracle full",
-        " moving --motion-oracle exact", " moving --oracle-fraction 0.5",
+        " moving --motion-oracle exact", " moving --motion-oracle tilt", " moving --oracle-fraction 0.5",
         " moving --motion-oracle full --oracle-fraction 3", " static --push-speed 0.01", " moving --push-speed 0",
         " moving --push-speed 1"}) {
     const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
@@ -494,8 +494,9 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
 
 #ifdef DEPOWDER_EVAL_MOVING
 // --motion-oracle's motion: all of it takes T_a to T_b; the planar part keeps T_a's height and
-// tilt and turns it about the vertical by the motion's turn about z; a fraction scales both.
-TEST(EvalMoving, OracleMotionIsTheTrueMotionOrItsPlanarPart) {
+// tilt and turns it about the vertical by the motion's turn about z; the tip part is the rest; a
+// fraction scales each.
+TEST(EvalMoving, OracleMotionIsTheTrueMotionOrItsPlanarOrTipPart) {
   const Pose T_a = makePoseRpy({0.05, -0.02, 0.03}, 0.1, -0.05, 0.4);
   const Eigen::Matrix3d turn =
       (Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()))
@@ -503,9 +504,9 @@ TEST(EvalMoving, OracleMotionIsTheTrueMotionOrItsPlanarPart) {
   Pose T_b = T_a;
   T_b.linear() = turn * T_a.linear();
   T_b.translation() += Eigen::Vector3d(0.01, 0.004, -0.003);
-  const Pose full = oracleMotion(T_a, T_b, false, 1.0) * T_a;
+  const Pose full = oracleMotion(T_a, T_b, MotionPart::kFull, 1.0) * T_a;
   EXPECT_TRUE(full.isApprox(T_b, 1e-12));
-  const Pose planar = oracleMotion(T_a, T_b, true, 1.0) * T_a;
+  const Pose planar = oracleMotion(T_a, T_b, MotionPart::kPlanar, 1.0) * T_a;
   EXPECT_NEAR(planar.translation().x(), T_b.translation().x(), 1e-12);
   EXPECT_NEAR(planar.translation().y(), T_b.translation().y(), 1e-12);
   EXPECT_NEAR(planar.translation().z(), T_a.translation().z(), 1e-12);
@@ -513,10 +514,22 @@ TEST(EvalMoving, OracleMotionIsTheTrueMotionOrItsPlanarPart) {
   EXPECT_NEAR(std::abs(planar_turn.axis().z()), 1.0, 1e-9);  // about the vertical only
   const Eigen::Matrix3d& R = turn;
   EXPECT_NEAR(planar_turn.angle(), std::abs(std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1))), 1e-9);
-  const Pose half = oracleMotion(T_a, T_b, false, 0.5) * T_a;
+  const Pose half = oracleMotion(T_a, T_b, MotionPart::kFull, 0.5) * T_a;
   EXPECT_TRUE(half.translation().isApprox(0.5 * (T_a.translation() + T_b.translation()), 1e-12));
   EXPECT_NEAR(rotationAngle(half.linear(), T_a.linear()), 0.5 * rotationAngle(T_b.linear(), T_a.linear()), 1e-12);
-  EXPECT_TRUE(oracleMotion(T_a, T_b, false, 0.0).isApprox(Pose::Identity(), 1e-12));
+  EXPECT_TRUE(oracleMotion(T_a, T_b, MotionPart::kFull, 0.0).isApprox(Pose::Identity(), 1e-12));
+  // The tip after the planar part is the whole motion; alone it keeps the origin's xy and turns
+  // the part 0.1 rad about a horizontal axis (x, turned with the motion's turn about z).
+  const Pose planar_motion = oracleMotion(T_a, T_b, MotionPart::kPlanar, 1.0);
+  const Pose tip_motion = oracleMotion(T_a, T_b, MotionPart::kTip, 1.0);
+  EXPECT_TRUE((tip_motion * planar_motion * T_a).linear().isApprox(T_b.linear(), 1e-12));
+  const Pose tip = tip_motion * T_a;
+  EXPECT_NEAR(tip.translation().x(), T_a.translation().x(), 1e-12);
+  EXPECT_NEAR(tip.translation().y(), T_a.translation().y(), 1e-12);
+  EXPECT_NEAR(tip.translation().z(), T_b.translation().z(), 1e-12);
+  const Eigen::AngleAxisd tip_turn(tip.linear() * T_a.linear().transpose());
+  EXPECT_NEAR(tip_turn.angle(), 0.1, 1e-9);
+  EXPECT_NEAR(tip_turn.axis().z(), 0.0, 1e-9);
 }
 
 TEST(EvalMoving, ShortPushShapeAndBounds) {

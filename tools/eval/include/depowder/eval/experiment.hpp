@@ -146,9 +146,10 @@ struct MovingOptions {
   /// A diagnostic no cell has: before each frame, every tracker is told the part's true motion
   /// since the last frame (PartTracker::predictMotion), all of it ("full") or only its turn about
   /// the vertical and its horizontal slide ("planar": what a model of planar pushing driven by
-  /// the nozzle's path could predict at best), scaled by motion_oracle_fraction (a model that
+  /// the nozzle's path could predict at best) or only the rest, its tip and its rise or sink
+  /// ("tip": what a model of tipping alone could), scaled by motion_oracle_fraction (a model that
   /// predicts part of the motion). A push lost then is lost by the fits and the filter.
-  std::string motion_oracle;          ///< "" (none), "full" or "planar"
+  std::string motion_oracle;          ///< "" (none), "full", "planar" or "tip"
   double motion_oracle_fraction = 1;  ///< of the true turn angle and slide
   double success_rot_deg = 15;        ///< Table II: final error within 15 deg...
   double success_trans = 0.015;       ///< ... and 15 mm
@@ -209,10 +210,16 @@ MovingResult runMoving(const EvalCell& cell, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const MovingOptions& options,
                        const RunControl& control = {});
 Json toJson(const MovingResult& result, const MovingOptions& options);
+/// Which part of a motion MovingOptions::motion_oracle tells.
+enum class MotionPart {
+  kFull,    ///< all of it
+  kPlanar,  ///< its turn about the vertical (turnAboutVertical) and its horizontal slide
+  kTip,     ///< the rest: the rotation that follows the planar turn, and the rise or sink
+};
 /// MovingOptions::motion_oracle's motion from pose T_a to T_b (cell frame), about the part's
-/// origin: all of it, or (planar) only its turn about the vertical and its horizontal slide;
-/// `fraction` of its turn angle and of its origin's displacement.
-Pose oracleMotion(const Pose& T_a, const Pose& T_b, bool planar, double fraction);
+/// origin: `part` of it, `fraction` of that part's turn angle and of its origin's displacement.
+/// The tip applied after the planar part is the full motion.
+Pose oracleMotion(const Pose& T_a, const Pose& T_b, MotionPart part, double fraction);
 
 /// {"experiment": "static", "seed", "interrupted", "options", "rows": [...]} (keys of each row
 /// as the issue lists them, plus the extra figures above).
