@@ -530,6 +530,14 @@ TEST(EvalMoving, OracleMotionIsTheTrueMotionOrItsPlanarOrTipPart) {
   const Eigen::AngleAxisd tip_turn(tip.linear() * T_a.linear().transpose());
   EXPECT_NEAR(tip_turn.angle(), 0.1, 1e-9);
   EXPECT_NEAR(tip_turn.axis().z(), 0.0, 1e-9);
+  MovingOptions o;
+  o.motion_oracle = "tilt";
+  try {
+    runMoving(testCell(), {defaultPart("cube")}, {tracker::Method::kCu}, o);
+    ADD_FAILURE() << "an unknown motion_oracle ran";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'tilt'"), std::string::npos) << e.what();
+  }
 }
 
 TEST(EvalMoving, ShortPushShapeAndBounds) {
