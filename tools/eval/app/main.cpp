@@ -168,8 +168,7 @@ Args parse(int argc, char** argv) {
         throw std::invalid_argument("--probe must be an integer 1..10000 (frames)");
       a.probe = static_cast<int>(n);
     } else if (f == "--motion-oracle") {
-      if (v != "full" && v != "planar" && v != "tip")
-        throw std::invalid_argument("--motion-oracle: full, planar or tip, got '" + v + "'");
+      motionPart(v);  // rejects a name it does not know
       a.motion_oracle = v;
     } else if (f == "--oracle-fraction") {
       a.oracle_fraction = number(f, v);

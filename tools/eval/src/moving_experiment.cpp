@@ -21,11 +21,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
   EvalCell cell = cell_in;
   cell.sim.physics.enabled = true;
   const int max_frames = static_cast<int>(std::lround(o.max_duration * cell.fps));
-  if (!o.motion_oracle.empty() && o.motion_oracle != "full" && o.motion_oracle != "planar" && o.motion_oracle != "tip")
-    throw std::invalid_argument("moving: motion_oracle must be \"\", full, planar or tip, got '" + o.motion_oracle + "'");
-  const MotionPart oracle_part = o.motion_oracle == "planar" ? MotionPart::kPlanar
-                                 : o.motion_oracle == "tip"  ? MotionPart::kTip
-                                                             : MotionPart::kFull;
+  const MotionPart oracle_part = o.motion_oracle.empty() ? MotionPart::kFull : motionPart(o.motion_oracle);
   const double total = static_cast<double>(parts.size()) * o.trials * max_frames;
   double done = 0;
   for (const EvalPart& part : parts) {

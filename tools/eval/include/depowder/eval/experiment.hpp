@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -216,6 +217,14 @@ enum class MotionPart {
   kPlanar,  ///< its turn about the vertical (turnAboutVertical) and its horizontal slide
   kTip,     ///< the rest: the rotation that follows the planar turn, and the rise or sink
 };
+/// The MotionPart a motion_oracle names: "full", "planar" or "tip". Throws std::invalid_argument
+/// naming any other.
+inline MotionPart motionPart(const std::string& name) {
+  if (name == "full") return MotionPart::kFull;
+  if (name == "planar") return MotionPart::kPlanar;
+  if (name == "tip") return MotionPart::kTip;
+  throw std::invalid_argument("motion oracle must be full, planar or tip, got '" + name + "'");
+}
 /// MovingOptions::motion_oracle's motion from pose T_a to T_b (cell frame), about the part's
 /// origin: `part` of it, `fraction` of that part's turn angle and of its origin's displacement.
 /// The tip applied after the planar part is the full motion.
