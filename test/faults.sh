@@ -173,5 +173,13 @@ tracker_killed | garbage)  # these runs must still finish the part
   else
     echo "FAILED: the run did not complete cleanly (run_$main/summary.json)"; code=1
   fi ;;
+estop | controller_drop)  # the run's summary counts what the driver went through
+  key=driver_estops; [ "$FAULT" = controller_drop ] && key=driver_reconnects
+  grep -E '"(controller|driver)_' "run_$main/summary.json" || true
+  if grep -Eq "\"$key\": [1-9]" "run_$main/summary.json"; then
+    echo "ok: the summary counts it ($key)"
+  else
+    echo "FAILED: the summary does not count it ($key, run_$main/summary.json)"; code=1
+  fi ;;
 esac
 exit $code

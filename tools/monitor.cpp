@@ -1,7 +1,7 @@
 // depowder-monitor: watches a running cell over LCM, shows a live line per part
 // (phase, eta, tracking status, elapsed time) and, when every part is done, prints
-// the run's summary: time, final true eta, pose error, contacts, limit violations,
-// frames dropped, end-to-end latency, and each process's CPU and peak memory.
+// the run's summary: time, final true eta, pose error, contacts, the controller's errors and
+// the driver's faults, frames dropped, end-to-end latency, and each process's CPU and peak memory.
 // It only listens; SIM_TRUTH is read for the report, never fed back to the cell.
 #include <unistd.h>
 
@@ -14,6 +14,9 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
@@ -58,6 +61,17 @@ const char* phaseName(int phase) {
 const char* trackName(int s) {
   static const char* names[] = {"waiting", "tracking", "degraded", "lost"};
   return s >= 0 && s <= 3 ? names[s] : "?";
+}
+
+// A counter in `process`'s latest heartbeat; -1 when that process or that stat was not heard.
+std::int64_t counter(const std::map<std::string, heartbeat_t>& processes, const std::string& process,
+                     const std::string& name) {
+  const auto it = processes.find(process);
+  if (it == processes.end()) return -1;
+  const heartbeat_t& h = it->second;
+  for (int k = 0; k < h.num_stats; ++k)
+    if (h.stat_names[k] == name) return static_cast<std::int64_t>(h.stat_values[k]);
+  return -1;
 }
 
 int usage(const std::string& error = "") {
@@ -234,13 +248,24 @@ int main(int argc, char** argv) {
            << ", \"trans_err_cm\": " << trans << "}";
       first = false;
     }
-    std::int64_t limit_violations = 0;
-    for (const auto& [name, h] : processes)
-      for (int k = 0; k < h.num_stats; ++k)
-        if (h.stat_names[k] == "limit_violations") limit_violations += static_cast<std::int64_t>(h.stat_values[k]);
     const int contacts = has_truth ? truth.contact_count : -1;
-    std::printf("  nozzle-part contacts: %d   limit violations: %lld\n", contacts,
-                static_cast<long long>(limit_violations));
+    std::printf("  nozzle-part contacts: %d\n", contacts);
+    // The arm: what the (emulated) controller refused, and what the driver did about it (-: not heard).
+    const std::vector<std::pair<std::string, std::int64_t>> arm = {
+        {"controller_late_errors", counter(processes, "depowder-sim", "controller_late_errors")},
+        {"controller_limit_errors", counter(processes, "depowder-sim", "controller_limit_errors")},
+        {"controller_speed_errors", counter(processes, "depowder-sim", "controller_speed_errors")},
+        {"driver_faults", counter(processes, "depowder-driver", "faults")},
+        {"driver_safety_stops", counter(processes, "depowder-driver", "safety_stops")},
+        {"driver_estops", counter(processes, "depowder-driver", "estops")},
+        {"driver_reconnects", counter(processes, "depowder-driver", "reconnects")}};
+    auto shown = [](std::int64_t n) { return n < 0 ? std::string("-") : std::to_string(n); };
+    std::printf(
+        "  controller errors: slvMove late %s, joint limit %s, too fast %s; driver faults %s, safety stops %s, "
+        "E-stops %s, reconnects %s\n",
+        shown(arm[0].second).c_str(), shown(arm[1].second).c_str(), shown(arm[2].second).c_str(),
+        shown(arm[3].second).c_str(), shown(arm[4].second).c_str(), shown(arm[5].second).c_str(),
+        shown(arm[6].second).c_str());
     std::printf("  POINTS seen %lld, lost %lld; PART_POSE frames missing %lld\n", static_cast<long long>(points_seen),
                 static_cast<long long>(points_lost), static_cast<long long>(poses_missing));
     std::printf(
@@ -257,8 +282,9 @@ int main(int argc, char** argv) {
     if (!(loadavg >> load[0] >> load[1] >> load[2])) load[0] = load[1] = load[2] = -1;  // -1: not known
     std::printf("  machine load average 1 / 5 / 15 min: %.2f / %.2f / %.2f\n", load[0], load[1], load[2]);
     std::printf("  %-22s %6s %9s %8s %7s\n", "process", "cpu%", "peak_MB", "dropped", "decode");
-    json << "\n  ],\n  \"contacts\": " << contacts << ",\n  \"limit_violations\": " << limit_violations
-         << ",\n  \"points_lost\": " << points_lost << ",\n  \"part_pose_missing\": " << poses_missing
+    json << "\n  ],\n  \"contacts\": " << contacts;
+    for (const auto& [key, n] : arm) json << ",\n  \"" << key << "\": " << n;
+    json << ",\n  \"points_lost\": " << points_lost << ",\n  \"part_pose_missing\": " << poses_missing
          << ",\n  \"points_seen\": " << points_seen
          << ",\n  \"pose_latency_ms_p50\": " << percentile(pose_latency_ms, 0.5)
          << ",\n  \"pose_latency_ms_p99\": " << percentile(pose_latency_ms, 0.99)

@@ -261,6 +261,12 @@ int main(int argc, char** argv) {
       heartbeat.setStat("step_ms", step_ms);
       heartbeat.setStat("lag_s", lag_s);
       heartbeat.setStat("powder_removed_cm3", world->powderRemoved() * 1e6);
+      if (emulator) {  // what the emulated controller refused (a real RC8 logs these as errors)
+        const EmulatorStats es = emulator->stats();
+        heartbeat.setStat("controller_late_errors", static_cast<double>(es.late_errors));
+        heartbeat.setStat("controller_limit_errors", static_cast<double>(es.limit_errors));
+        heartbeat.setStat("controller_speed_errors", static_cast<double>(es.speed_errors));
+      }
       heartbeat.setState(!fast && lag_s > 0.25 ? heartbeat_t::DEGRADED : heartbeat_t::RUNNING,
                          !fast && lag_s > 0.25 ? "behind real time by " + std::to_string(lag_s) + " s" : "");
       heartbeat.tick();
