@@ -60,7 +60,7 @@ PlanResult Driver::submitPlan(const Plan& plan) {
   Joints q_start;
   double hb_age;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     q_start = q_command_shared_;
     hb_age = heartbeat_ns_ == 0 ? 1e9 : static_cast<double>(monoNs() - heartbeat_ns_) * 1e-9;
   }
@@ -68,7 +68,7 @@ PlanResult Driver::submitPlan(const Plan& plan) {
     res.accepted = false;
     res.status = s;
     res.reason = why;
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     ++status_.stats.plans_refused;
     status_.last_plan_result = "plan " + std::to_string(plan.id) + " refused: " + why;
     return res;
@@ -87,7 +87,7 @@ PlanResult Driver::submitPlan(const Plan& plan) {
   res.accepted = true;
   res.status = pp.status;
   res.reason = pp.reason;
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   ++status_.stats.plans_accepted;
   if (pp.status == PlanStatus::Clipped) ++status_.stats.plans_clipped;
   status_.last_plan_result =
@@ -99,7 +99,7 @@ PlanResult Driver::submitPlan(const Plan& plan) {
 }
 
 void Driver::plannerHeartbeat() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   heartbeat_ns_ = monoNs();
 }
 
@@ -112,7 +112,7 @@ void Driver::estop(bool stop, const std::string& why) {
     }
     // Halt at once from this thread: the watch connection never waits behind a slvMove.
     if (session_.isOpen()) session_.halt();
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     if (first) ++status_.stats.estops;
     status_.mode = DriverMode::EStopped;
     status_.reason = "ESTOP: " + why;
@@ -124,12 +124,12 @@ void Driver::estop(bool stop, const std::string& why) {
 }
 
 DriverStatus Driver::status() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   return status_;
 }
 
 void Driver::setMode(DriverMode m, const std::string& reason) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   status_.mode = m;
   status_.reason = reason;
 }
@@ -151,7 +151,7 @@ bool Driver::enableFromCurrentPosition() {
   was_inside_ = true;
   safety_stopped_ = false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     q_command_shared_ = q;
     status_.q = q;
     status_.q_command = q;
@@ -178,7 +178,7 @@ bool Driver::enableFromCurrentPosition() {
   bool have = false;
   int from = 0;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     if (have_plan_ && !incoming_) {
       resume = current_plan_;
       have = true;
@@ -208,7 +208,7 @@ bool Driver::connectAndEnable() {
     return false;
   }
   if (connected_once_) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     ++status_.stats.reconnects;
   }
   connected_once_ = true;
@@ -239,7 +239,7 @@ bool Driver::cycle() {
     session_.motorOff();
     generator_.reset(limiter_.last());
     estop_handled_ = true;
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     status_.mode = DriverMode::EStopped;
     status_.qd = {};
     status_.tool = Tool::kOff;
@@ -248,7 +248,7 @@ bool Driver::cycle() {
   if (estop_handled_) {
     // Reset: re-enable where the arm is, without a plan.
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      std::lock_guard<PiMutex> lock(mutex_);
       have_plan_ = false;
       incoming_.reset();
       status_.plan_id = -1;
@@ -276,7 +276,7 @@ bool Driver::slaveCycle() {
   std::int64_t plan_utime;
   bool have_plan;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     incoming.swap(incoming_);
     hb_age = heartbeat_ns_ == 0 ? 1e9 : static_cast<double>(monoNs() - heartbeat_ns_) * 1e-9;
     plan_utime = current_plan_.utime;
@@ -307,7 +307,7 @@ bool Driver::slaveCycle() {
   if (verdict.stop != StopReason::None) {
     generator_.stop();
     safety_stopped_ = true;
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     have_plan_ = false;
     ++status_.stats.safety_stops;
     // Reported as HOLDING once the arm is at rest (step 8); FOLLOWING while it brakes.
@@ -330,7 +330,7 @@ bool Driver::slaveCycle() {
     if (estop_events_.load() != estop_seen_) return false;
     const bool lost = r.connectionLost();
     if (lost) session_.abort();
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<PiMutex> lock(mutex_);
     if (!lost) ++status_.stats.faults;
     status_.mode = lost ? DriverMode::Disconnected : DriverMode::Fault;
     status_.reason = (lost ? "controller connection lost: " : "controller error: ") + r.error;
@@ -340,7 +340,7 @@ bool Driver::slaveCycle() {
   if (exchange_hook_) exchange_hook_(t_done);
 
   // 8. Status.
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   ++status_.stats.exchanges;
   if (cmd.clipped()) ++status_.stats.commands_clipped;
   q_command_shared_ = cmd.q;

@@ -85,7 +85,7 @@ SessionResult Rc8Session::open() {
   SessionResult s = connectChannel(act_, &controller_, &robot_);
   if (!s.ok) return s;
   {
-    std::lock_guard<std::mutex> lock(watch_mutex_);
+    std::lock_guard<PiMutex> lock(watch_mutex_);
     s = connectChannel(watch_, &watch_controller_, &watch_robot_);
   }
   if (!s.ok) {
@@ -170,7 +170,7 @@ SessionResult Rc8Session::setTool(Tool tool, bool force) {
 }
 
 SessionResult Rc8Session::halt() {
-  std::lock_guard<std::mutex> lock(watch_mutex_);
+  std::lock_guard<PiMutex> lock(watch_mutex_);
   const CallResult r = watch_.robotHalt(watch_robot_);
   return SessionResult::from(r);
 }
@@ -208,7 +208,7 @@ SessionResult Rc8Session::close() {
     keep(act_.serviceStop());
   }
   {
-    std::lock_guard<std::mutex> lock(watch_mutex_);
+    std::lock_guard<PiMutex> lock(watch_mutex_);
     if (watch_.connected()) {
       if (watch_robot_) keep(watch_.robotRelease(watch_robot_));
       if (watch_controller_) keep(watch_.controllerDisconnect(watch_controller_));
@@ -222,7 +222,7 @@ SessionResult Rc8Session::close() {
 void Rc8Session::abort() {
   act_.close();
   {
-    std::lock_guard<std::mutex> lock(watch_mutex_);
+    std::lock_guard<PiMutex> lock(watch_mutex_);
     watch_.close();
   }
   act_.setTimeouts(cfg_.client.reply_timeout_s, cfg_.client.retries);

@@ -145,7 +145,7 @@ void BcapEmulator::acceptLoop() {
     conn->fd = fd;
     conn->id = next_connection_++;
     {
-      std::lock_guard<std::mutex> state(mutex_);
+      std::lock_guard<PiMutex> state(mutex_);
       ++stats_.connections;
     }
     conn->thread = std::thread([this, conn] { serve(conn); });
@@ -180,7 +180,7 @@ void BcapEmulator::serve(std::shared_ptr<Connection> conn) {
       if (d.status == bcap::DecodeStatus::Incomplete) break;
       if (d.status == bcap::DecodeStatus::Ok) {
         {
-          std::lock_guard<std::mutex> lock(mutex_);
+          std::lock_guard<PiMutex> lock(mutex_);
           ++stats_.packets;
         }
         const Packet rep = handle(d.packet, conn->id, partial);
@@ -191,7 +191,7 @@ void BcapEmulator::serve(std::shared_ptr<Connection> conn) {
       // Invalid. If the frame itself is sound (header, length, footer) answer with an error
       // and carry on; otherwise the stream cannot be re-synchronised: close it.
       {
-        std::lock_guard<std::mutex> lock(mutex_);
+        std::lock_guard<PiMutex> lock(mutex_);
         ++stats_.malformed;
         stats_.last_error = "malformed request: " + d.error;
       }
@@ -205,7 +205,7 @@ void BcapEmulator::serve(std::shared_ptr<Connection> conn) {
       rep.serial = static_cast<std::uint16_t>(buf[5] | (buf[6] << 8));
       rep.id = hr::E_INVALIDPACKET;
       {
-        std::lock_guard<std::mutex> lock(mutex_);
+        std::lock_guard<PiMutex> lock(mutex_);
         ++stats_.error_replies;
       }
       open = sendAll(conn->fd, bcap::encode(rep));
@@ -224,7 +224,7 @@ void BcapEmulator::serve(std::shared_ptr<Connection> conn) {
 }
 
 void BcapEmulator::connectionClosed(int connection) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   if (arm_owner_ == connection) {
     // A client that vanishes in slave mode stops the arm, as a real controller's watchdog does.
     if (slave_mode_ != 0) stopArmLocked(false);
@@ -238,7 +238,7 @@ void BcapEmulator::connectionClosed(int connection) {
 // ---- accessors ----------------------------------------------------------------------------------
 
 EmulatorJointState BcapEmulator::joints() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   EmulatorJointState s;
   s.q = q_;
   const bool moving = slave_mode_ != 0 && last_move_ns_ != 0 &&
@@ -251,7 +251,7 @@ EmulatorJointState BcapEmulator::joints() const {
 }
 
 EmulatorToolState BcapEmulator::tool() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   EmulatorToolState t;
   auto v = io_.find(config_.vacuum_variable);
   auto a = io_.find(config_.air_variable);
@@ -261,22 +261,22 @@ EmulatorToolState BcapEmulator::tool() const {
 }
 
 bool BcapEmulator::halted() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   return halted_;
 }
 
 std::optional<std::chrono::steady_clock::time_point> BcapEmulator::lastHaltTime() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   return halt_time_;
 }
 
 EmulatorStats BcapEmulator::stats() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   return stats_;
 }
 
 bool BcapEmulator::setJoints(const robot::Joints& q) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   if (slave_mode_ != 0) return false;
   q_ = q;
   qd_ = {};
@@ -284,7 +284,7 @@ bool BcapEmulator::setJoints(const robot::Joints& q) {
 }
 
 void BcapEmulator::raiseError(const std::string& why) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   stopArmLocked(true);
   error_pending_ = true;
   stats_.last_error = "raised: " + why;
@@ -355,7 +355,7 @@ Packet BcapEmulator::handle(const Packet& req, int connection, const PartialRepl
 
   if (req.id == bcap::ID_ROBOT_EXECUTE) return robotExecute(req, connection, partial);
 
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<PiMutex> lock(mutex_);
   switch (req.id) {
     case bcap::ID_SERVICE_START:
     case bcap::ID_SERVICE_STOP:
@@ -444,7 +444,7 @@ Packet BcapEmulator::handle(const Packet& req, int connection, const PartialRepl
 }
 
 Packet BcapEmulator::robotExecute(const Packet& req, int connection, const PartialReply& partial) {
-  std::unique_lock<std::mutex> lock(mutex_);
+  std::unique_lock<PiMutex> lock(mutex_);
   if (req.args.size() != 3 && req.args.size() != 2)
     return error(req, hr::E_INVALIDARG, "expects (robot, command, parameter)");
   if (!handleArg(req, 0, Handle::Robot)) return error(req, hr::E_HANDLE, "not a robot handle");
@@ -528,7 +528,7 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
 Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& param) {
   const std::int64_t arrival = nowNs();
   const std::int64_t cycle_ns = static_cast<std::int64_t>(config_.cycle_s * 1e9);
-  std::unique_lock<std::mutex> lock(mutex_);
+  std::unique_lock<PiMutex> lock(mutex_);
   if (error_pending_) return error(req, hr::E_CONTROLLER_ERROR, "slvMove");
   if (slave_mode_ == 0) return error(req, halted_ ? hr::E_HALTED : hr::E_NOT_SLAVE_MODE, "slvMove");
   if (arm_owner_ != connection) return error(req, hr::E_ARM_NOT_TAKEN, "slvMove");

@@ -19,6 +19,7 @@
 #include <optional>
 #include <string>
 
+#include "depowder/pi_mutex.hpp"
 #include "depowder/robot/kinematics.hpp"
 #include "depowder/robot/rc8_session.hpp"
 #include "depowder/robot/safety.hpp"
@@ -119,7 +120,7 @@ class Driver {
   CommandLimiter limiter_;
 
   // Shared with the input threads.
-  mutable std::mutex mutex_;
+  mutable PiMutex mutex_;  // priority inheritance: the slave loop never waits behind a preempted input thread
   std::optional<PreparedPlan> incoming_;
   Plan current_plan_;  ///< raw, for resuming after a reconnect
   bool have_plan_ = false;

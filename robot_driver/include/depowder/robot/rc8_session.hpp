@@ -10,6 +10,7 @@
 #include <string>
 
 #include "depowder/robot/bcap/client.hpp"
+#include "depowder/pi_mutex.hpp"
 #include "depowder/robot/kinematics.hpp"
 #include "depowder/robot/trajectory.hpp"
 
@@ -76,7 +77,7 @@ class Rc8Session {
   SessionConfig cfg_;
   bcap::Client act_;
   bcap::Client watch_;
-  std::mutex watch_mutex_;
+  PiMutex watch_mutex_;
   std::uint32_t controller_ = 0, robot_ = 0, vacuum_ = 0, air_ = 0;
   std::uint32_t watch_controller_ = 0, watch_robot_ = 0;
   bool open_ = false;

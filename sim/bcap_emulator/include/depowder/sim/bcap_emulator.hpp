@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "depowder/robot/bcap/packet.hpp"
+#include "depowder/pi_mutex.hpp"
 #include "depowder/robot/kinematics.hpp"
 
 namespace depowder::sim {
@@ -142,7 +143,7 @@ class BcapEmulator {
   std::vector<std::shared_ptr<Connection>> connections_;
   int next_connection_ = 1;
 
-  mutable std::mutex mutex_;
+  mutable PiMutex mutex_;  // priority inheritance: the connection threads never wait behind the simulator's step
   std::map<std::uint32_t, Handle> handles_;
   std::uint32_t next_handle_ = 1;
   robot::Joints q_{};
