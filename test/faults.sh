@@ -164,22 +164,22 @@ set +e
 "$BUILD/tests/fault_probe" report "$FAULT" "$log" --cell cell.yaml --at "$at" $until_opt
 code=$?
 set -e
+# summary_has REGEX OK_MESSAGE FAILED_MESSAGE: the run's summary.json matches REGEX, or the test fails.
+summary_has() {
+  if grep -Eq "$1" "run_$main/summary.json"; then
+    echo "ok: $2"
+  else
+    echo "FAILED: $3 (run_$main/summary.json)"; code=1
+  fi
+}
 case $FAULT in
 tracker_killed | garbage)  # these runs must still finish the part
   grep -A14 "run summary" "launch_$main.out" || true
   # (contacts away from the fault come from tracking accuracy: the summary above prints them)
-  if grep -q '"done": true' "run_$main/summary.json"; then
-    echo "ok: the run completed"
-  else
-    echo "FAILED: the run did not complete cleanly (run_$main/summary.json)"; code=1
-  fi ;;
+  summary_has '"done": true' "the run completed" "the run did not complete cleanly" ;;
 estop | controller_drop)  # the run's summary counts what the driver went through
   key=driver_estops; [ "$FAULT" = controller_drop ] && key=driver_reconnects
   grep -E '"(controller|driver)_' "run_$main/summary.json" || true
-  if grep -Eq "\"$key\": [1-9]" "run_$main/summary.json"; then
-    echo "ok: the summary counts it ($key)"
-  else
-    echo "FAILED: the summary does not count it ($key, run_$main/summary.json)"; code=1
-  fi ;;
+  summary_has "\"$key\": [1-9]" "the summary counts it ($key)" "the summary does not count it ($key)" ;;
 esac
 exit $code
