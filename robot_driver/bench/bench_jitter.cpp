@@ -1,6 +1,9 @@
 // Slave-cycle jitter: the driver core runs a plan that keeps the arm moving, against the b-CAP
 // emulator over loopback TCP in sync mode (0x202), and the interval between successive slvMove
 // exchanges is recorded for --seconds (default 60). Goal: 99 % of the intervals within 8 +- 1 ms.
+// The baseline, run first in the same process for as long and under the same load: a bare 8 ms
+// timer loop at the slave loop's priority, whose late wakes are the host's own (a virtual
+// machine's stalls, say) and would make any slvMove late.
 //   depowder-driver-bench-jitter [--seconds S] [--load N] [--port P] [--no-realtime]
 //   --load N   N extra threads spinning on the CPU (a stand-in for the rest of the cell)
 //   --port P   use an emulator that is already running on 127.0.0.1:P (e.g. depowder-bcap-emulator)
@@ -8,6 +11,8 @@
 #include <sched.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <ctime>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -27,6 +32,39 @@ using namespace depowder::robot;
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
+std::int64_t monoNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000LL + ts.tv_nsec;
+}
+
+// How late an 8 ms absolute-time sleep wakes, ms, each cycle for `seconds`.
+std::vector<double> timerLateness(double seconds, bool realtime, bool* rt) {
+  std::vector<double> late;
+  std::thread loop([&] {
+    constexpr std::int64_t kCycle = 8'000'000;
+    std::int64_t next = monoNs();
+    const std::int64_t end = next + static_cast<std::int64_t>(seconds * 1e9);
+    while (next < end) {
+      next += kCycle;
+      const timespec ts{static_cast<time_t>(next / 1'000'000'000LL), static_cast<long>(next % 1'000'000'000LL)};
+      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+      }
+      const std::int64_t now = monoNs();
+      late.push_back(static_cast<double>(now - next) * 1e-6);
+      if (now - next > kCycle) next = now;  // as the driver does: no burst to catch up
+    }
+  });
+  *rt = false;
+  if (realtime) {
+    sched_param sp{};
+    sp.sched_priority = 50;
+    *rt = pthread_setschedparam(loop.native_handle(), SCHED_FIFO, &sp) == 0;
+  }
+  loop.join();
+  return late;
+}
+
 std::int64_t wallUtime() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
@@ -52,6 +90,18 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> burners;
+  for (int i = 0; i < load; ++i)
+    burners.emplace_back([&] {
+      volatile double x = 0;
+      while (!stop) x = x + std::sqrt(x + 1.0);
+    });
+
+  // 0. The baseline: the host's own timer, at the slave loop's priority, under the same load.
+  bool baseline_rt = false;
+  std::vector<double> late = timerLateness(seconds, realtime, &baseline_rt);
 
   // 1. The controller: in-process emulator unless --port names a running one.
   std::unique_ptr<sim::BcapEmulator> emu;
@@ -82,20 +132,14 @@ int main(int argc, char** argv) {
     std::lock_guard<std::mutex> lock(m);
     t.push_back(ns);
   });
-  std::atomic<bool> stop{false};
-  std::thread loop([&] { driver.run(stop); });
+  std::atomic<bool> stop_driver{false};
+  std::thread loop([&] { driver.run(stop_driver); });
   bool rt = false;
   if (realtime) {
     sched_param sp{};
     sp.sched_priority = 50;
     rt = pthread_setschedparam(loop.native_handle(), SCHED_FIFO, &sp) == 0;
   }
-  std::vector<std::thread> burners;
-  for (int i = 0; i < load; ++i)
-    burners.emplace_back([&] {
-      volatile double x = 0;
-      while (!stop) x = x + std::sqrt(x + 1.0);
-    });
 
   auto plan = [&](std::int64_t id) {
     Plan p;
@@ -115,8 +159,9 @@ int main(int argc, char** argv) {
     if (driver.status().mode != DriverMode::Following) driver.submitPlan(plan(++id));
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  stop = true;
+  stop_driver = true;
   loop.join();
+  stop = true;
   for (auto& b : burners) b.join();
 
   // 3. Intervals after the first 2 s (connection, motor on).
@@ -152,5 +197,13 @@ int main(int argc, char** argv) {
                 static_cast<long long>(es.speed_errors));
   }
   std::printf("\n");
+  if (late.empty()) return 0;
+  std::sort(late.begin(), late.end());
+  const auto beyond = [&](double ms) { return late.end() - std::upper_bound(late.begin(), late.end(), ms); };
+  std::printf("baseline, the host's own 8 ms timer (%zu wakes over %.0f s, %s, same load): late p50 %.3f  p99 %.3f  "
+              "max %.3f ms; later than 1 ms %td, than 8 ms %td\n",
+              late.size(), seconds, baseline_rt ? "SCHED_FIFO" : "normal priority", late[late.size() / 2],
+              late[std::min(late.size() - 1, static_cast<std::size_t>(0.99 * (late.size() - 1)))], late.back(),
+              beyond(1.0), beyond(8.0));
   return 0;
 }

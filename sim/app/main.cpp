@@ -173,6 +173,7 @@ int main(int argc, char** argv) {
     std::int64_t truth_due = 1;
     double render_ms = 0, step_ms = 0, lag_s = 0;
     std::int64_t frames = 0;
+    std::int64_t refusals_logged = 0;  // the emulated controller's refusals printed so far
     std::vector<bool> fault_done(setup.faults.size(), false), fault_over(setup.faults.size(), false);
     auto silenced = [&](const std::string& camera, double t) {
       for (const SimSetup::Fault& f : setup.faults)
@@ -263,6 +264,13 @@ int main(int argc, char** argv) {
       heartbeat.setStat("powder_removed_cm3", world->powderRemoved() * 1e6);
       if (emulator) {  // what the emulated controller refused (a real RC8 logs these as errors)
         const EmulatorStats es = emulator->stats();
+        const std::int64_t refusals = es.late_errors + es.limit_errors + es.speed_errors;
+        if (refusals > refusals_logged) {  // each one stops the arm: rare, and worth a line
+          std::cerr << "depowder-sim: controller error: " << es.last_refusal;
+          if (refusals > refusals_logged + 1) std::cerr << " (and " << refusals - refusals_logged - 1 << " more)";
+          std::cerr << std::endl;
+          refusals_logged = refusals;
+        }
         heartbeat.setStat("controller_late_errors", static_cast<double>(es.late_errors));
         heartbeat.setStat("controller_limit_errors", static_cast<double>(es.limit_errors));
         heartbeat.setStat("controller_speed_errors", static_cast<double>(es.speed_errors));

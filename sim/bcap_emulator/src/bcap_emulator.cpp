@@ -312,6 +312,8 @@ Packet BcapEmulator::error(const Packet& req, std::uint32_t hresult, const std::
   // Called with mutex_ held or not; stats_ is only touched under the lock.
   stats_.error_replies++;
   stats_.last_error = bcap::functionName(req.id) + ": " + why + " -> " + bcap::describeHresult(hresult);
+  if (hresult == hr::E_SLAVE_LATE || hresult == hr::E_JOINT_LIMIT || hresult == hr::E_SPEED_LIMIT)
+    stats_.last_refusal = stats_.last_error;
   return reply(req, hresult);
 }
 
@@ -536,11 +538,15 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
 
   // The late-command error: in sync mode the next command must come within late_limit_s.
   if (sync && last_move_ns_ != 0 && arrival - last_move_ns_ > static_cast<std::int64_t>(config_.late_limit_s * 1e9)) {
+    // Whose the delay was: this emulator's (its last reply went out late) or the client's.
+    const std::string why = "slvMove " + std::to_string((arrival - last_move_ns_) / 1000) +
+                            " us after the previous cycle (" + std::to_string((last_reply_ns_ - last_move_ns_) / 1000) +
+                            " us to its reply, " + std::to_string((arrival - last_reply_ns_) / 1000) +
+                            " us from the reply to this request)";
     ++stats_.late_errors;
     stopArmLocked(true);
     error_pending_ = true;
-    return error(req, hr::E_SLAVE_LATE,
-                 "slvMove " + std::to_string((arrival - last_move_ns_) / 1000) + " us after the previous one");
+    return error(req, hr::E_SLAVE_LATE, why);
   }
 
   const auto values = (param.array && param.isReal()) ? param.asReals() : std::nullopt;
@@ -587,6 +593,7 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
   for (int i = 0; i < 6; ++i) qd_[i] = (target[i] - q_[i]) / std::max(dt, 1e-6);
   q_ = target;
   last_move_ns_ = apply_at;
+  last_reply_ns_ = nowNs();
   ++slave_moves_;
   return reply(req, hr::S_OK, {Variant::r8Array(jointsDegreesLocked())});
 }

@@ -1,6 +1,7 @@
 // The b-CAP emulator against the real client over loopback TCP: the session of REFERENCE.md,
 // the client's bytes compared with hand-built packets, slave-mode timing rules, limits,
 // arm ownership, halts, tool I/O, "still executing" and re-sent requests.
+#include <cstdio>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -298,6 +299,15 @@ TEST(BcapEmulator, LateCommandStopsTheArmUntilClearError) {
   EXPECT_FALSE(emu.joints().motor_on);
   EXPECT_FALSE(emu.joints().slave_mode);
   EXPECT_EQ(emu.stats().late_errors, 1);
+  // The refusal says whose the delay was: the 30 ms this client slept after the reply.
+  long total = 0, to_reply = 0, from_reply = 0;
+  const std::string why = emu.stats().last_refusal;
+  ASSERT_EQ(std::sscanf(why.c_str(), "Robot_Execute: slvMove %ld us after the previous cycle (%ld us to its reply, %ld",
+                        &total, &to_reply, &from_reply),
+            3)
+      << why;
+  EXPECT_GE(from_reply, 30000) << why;
+  EXPECT_NEAR(total, to_reply + from_reply, 1) << why;  // each rounded down to us
   EXPECT_EQ(c.robotExecute(s.robot, "Motor", Variant::i4(1)).hresult, hr::E_CONTROLLER_ERROR);
   ASSERT_TRUE(c.controllerExecute(s.controller, "ClearError").ok());
   ASSERT_TRUE(c.robotExecute(s.robot, "Motor", Variant::i4(1)).ok());

@@ -73,6 +73,7 @@ struct EmulatorStats {
   std::int64_t speed_errors = 0;   ///< targets too far for one cycle
   std::int64_t halts = 0;          ///< Robot_Halt calls
   std::string last_error;          ///< description of the last error reply
+  std::string last_refusal;        ///< ...and of the last late / limit / speed error (the arm's refusals)
 };
 
 class BcapEmulator {
@@ -155,6 +156,7 @@ class BcapEmulator {
   bool error_pending_ = false;
   std::optional<std::chrono::steady_clock::time_point> halt_time_;
   std::int64_t last_move_ns_ = 0;  ///< CLOCK_MONOTONIC of the last applied slvMove (its cycle)
+  std::int64_t last_reply_ns_ = 0;  ///< CLOCK_MONOTONIC when that slvMove's reply went out
   std::int64_t cycle_origin_ns_ = 0;
   std::int64_t slave_moves_ = 0;
   std::map<std::string, bool> io_;
