@@ -53,6 +53,9 @@ class Rig {
     sim::BcapEmulatorConfig ecfg;
     ecfg.port = 0;
     ecfg.motor_on_time_s = 0.02;
+    // The late-command rule is test_bcap_emulator's and the jitter bench's. Here a host stall
+    // (a virtual machine's, 14 to 96 ms) would stop the arm, and a 1 s plan go stale meanwhile.
+    ecfg.late_limit_s = 0.5;
     emu_ = std::make_unique<sim::BcapEmulator>(ecfg);
     std::string err;
     if (!emu_->start(&err)) throw std::runtime_error(err);
@@ -307,7 +310,8 @@ TEST(DriverEmulator, LostConnectionResumesWithoutAJump) {
   rig.emu().dropConnections();
   // The controller stopped the arm when its client vanished; the driver reconnects, re-reads
   // the position and resumes the plan from there.
-  ASSERT_TRUE(rig.waitFor([&] { return rig.driver().status().stats.reconnects == 1; }, 2.0))
+  // (At least one: a host that stalls the loop past the reply timeout adds its own.)
+  ASSERT_TRUE(rig.waitFor([&] { return rig.driver().status().stats.reconnects >= 1; }, 2.0))
       << rig.driver().status().reason;
   EXPECT_TRUE(rig.emu().lastHaltTime().has_value());
   ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({-0.1, 0.1, 0.2}); }, 15.0)) << rig.driver().status().reason;
