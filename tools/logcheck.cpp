@@ -191,7 +191,8 @@ int main(int argc, char** argv) {
       // arrived): the frame was not replayed, which the coverage counts; it has no pose to compare.
       if (w.status >= 0 && it->second.status < 0) {
         if (++skipped <= 10)
-          std::printf("  frame %lld %s: no PART_POSE (skipped)\n", static_cast<long long>(key.first), key.second.c_str());
+          std::printf("  frame %lld %s: no PART_POSE (skipped)\n", static_cast<long long>(key.first),
+                      key.second.c_str());
         continue;
       }
       ++matched;

@@ -11,14 +11,14 @@
 #include <sched.h>
 
 #include <algorithm>
-#include <cerrno>
-#include <ctime>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -200,10 +200,11 @@ int main(int argc, char** argv) {
   if (late.empty()) return 0;
   std::sort(late.begin(), late.end());
   const auto beyond = [&](double ms) { return late.end() - std::upper_bound(late.begin(), late.end(), ms); };
-  std::printf("baseline, the host's own 8 ms timer (%zu wakes over %.0f s, %s, same load): late p50 %.3f  p99 %.3f  "
-              "max %.3f ms; later than 1 ms %td, than 8 ms %td\n",
-              late.size(), seconds, baseline_rt ? "SCHED_FIFO" : "normal priority", late[late.size() / 2],
-              late[std::min(late.size() - 1, static_cast<std::size_t>(0.99 * (late.size() - 1)))], late.back(),
-              beyond(1.0), beyond(8.0));
+  std::printf(
+      "baseline, the host's own 8 ms timer (%zu wakes over %.0f s, %s, same load): late p50 %.3f  p99 %.3f  "
+      "max %.3f ms; later than 1 ms %td, than 8 ms %td\n",
+      late.size(), seconds, baseline_rt ? "SCHED_FIFO" : "normal priority", late[late.size() / 2],
+      late[std::min(late.size() - 1, static_cast<std::size_t>(0.99 * (late.size() - 1)))], late.back(), beyond(1.0),
+      beyond(8.0));
   return 0;
 }

@@ -1,7 +1,6 @@
 // The b-CAP emulator against the real client over loopback TCP: the session of REFERENCE.md,
 // the client's bytes compared with hand-built packets, slave-mode timing rules, limits,
 // arm ownership, halts, tool I/O, "still executing" and re-sent requests.
-#include <cstdio>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -10,6 +9,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <mutex>
 #include <thread>
 

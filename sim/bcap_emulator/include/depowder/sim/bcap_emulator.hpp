@@ -25,8 +25,8 @@
 #include <thread>
 #include <vector>
 
-#include "depowder/robot/bcap/packet.hpp"
 #include "depowder/pi_mutex.hpp"
+#include "depowder/robot/bcap/packet.hpp"
 #include "depowder/robot/kinematics.hpp"
 
 namespace depowder::sim {
@@ -155,7 +155,7 @@ class BcapEmulator {
   bool halted_ = false;
   bool error_pending_ = false;
   std::optional<std::chrono::steady_clock::time_point> halt_time_;
-  std::int64_t last_move_ns_ = 0;  ///< CLOCK_MONOTONIC of the last applied slvMove (its cycle)
+  std::int64_t last_move_ns_ = 0;   ///< CLOCK_MONOTONIC of the last applied slvMove (its cycle)
   std::int64_t last_reply_ns_ = 0;  ///< CLOCK_MONOTONIC when that slvMove's reply went out
   std::int64_t cycle_origin_ns_ = 0;
   std::int64_t slave_moves_ = 0;
