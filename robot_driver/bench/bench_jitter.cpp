@@ -12,18 +12,17 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "depowder/robot/bcap/client.hpp"
 #include "depowder/robot/driver.hpp"
 #include "depowder/sim/bcap_emulator.hpp"
 
@@ -32,10 +31,13 @@ using namespace depowder::robot;
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
-std::int64_t monoNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000LL + ts.tv_nsec;
+using bcap::monotonicNs;
+
+// SCHED_FIFO 50, the driver's slave-loop priority (robot_driver/node/main.cpp); false without the privilege.
+bool makeRealtime(std::thread& t) {
+  sched_param sp{};
+  sp.sched_priority = 50;
+  return pthread_setschedparam(t.native_handle(), SCHED_FIFO, &sp) == 0;
 }
 
 // How late an 8 ms absolute-time sleep wakes, ms, each cycle for `seconds`.
@@ -43,24 +45,17 @@ std::vector<double> timerLateness(double seconds, bool realtime, bool* rt) {
   std::vector<double> late;
   std::thread loop([&] {
     constexpr std::int64_t kCycle = 8'000'000;
-    std::int64_t next = monoNs();
+    std::int64_t next = monotonicNs();
     const std::int64_t end = next + static_cast<std::int64_t>(seconds * 1e9);
     while (next < end) {
       next += kCycle;
-      const timespec ts{static_cast<time_t>(next / 1'000'000'000LL), static_cast<long>(next % 1'000'000'000LL)};
-      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-      }
-      const std::int64_t now = monoNs();
+      bcap::sleepUntilNs(next);
+      const std::int64_t now = monotonicNs();
       late.push_back(static_cast<double>(now - next) * 1e-6);
       if (now - next > kCycle) next = now;  // as the driver does: no burst to catch up
     }
   });
-  *rt = false;
-  if (realtime) {
-    sched_param sp{};
-    sp.sched_priority = 50;
-    *rt = pthread_setschedparam(loop.native_handle(), SCHED_FIFO, &sp) == 0;
-  }
+  *rt = realtime && makeRealtime(loop);
   loop.join();
   return late;
 }
@@ -134,12 +129,7 @@ int main(int argc, char** argv) {
   });
   std::atomic<bool> stop_driver{false};
   std::thread loop([&] { driver.run(stop_driver); });
-  bool rt = false;
-  if (realtime) {
-    sched_param sp{};
-    sp.sched_priority = 50;
-    rt = pthread_setschedparam(loop.native_handle(), SCHED_FIFO, &sp) == 0;
-  }
+  const bool rt = realtime && makeRealtime(loop);
 
   auto plan = [&](std::int64_t id) {
     Plan p;

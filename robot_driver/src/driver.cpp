@@ -1,19 +1,11 @@
 #include "depowder/robot/driver.hpp"
 
-#include <cerrno>
 #include <chrono>
-#include <ctime>
 
 namespace depowder::robot {
 namespace {
 
 std::int64_t monoNs() { return bcap::monotonicNs(); }
-
-void sleepUntil(std::int64_t t) {
-  timespec ts{static_cast<time_t>(t / 1000000000LL), static_cast<long>(t % 1000000000LL)};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
 
 std::int64_t systemUtime() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -220,7 +212,7 @@ void Driver::sleepCycle() {
   const std::int64_t now = monoNs();
   if (deadline_ns_ == 0 || deadline_ns_ < now - cycle) deadline_ns_ = now;
   deadline_ns_ += cycle;
-  sleepUntil(deadline_ns_);
+  bcap::sleepUntilNs(deadline_ns_);
 }
 
 bool Driver::cycle() {

@@ -13,7 +13,8 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <ctime>
+
+#include "depowder/robot/bcap/client.hpp"
 
 namespace depowder::sim {
 
@@ -27,17 +28,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = 180.0 / kPi;
 
-std::int64_t nowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
-
-void sleepUntilNs(std::int64_t t) {
-  timespec ts{static_cast<time_t>(t / 1000000000LL), static_cast<long>(t % 1000000000LL)};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
+std::int64_t nowNs() { return bcap::monotonicNs(); }
+using bcap::sleepUntilNs;
 
 bool sendAll(int fd, const std::vector<std::uint8_t>& bytes) {
   std::size_t sent = 0;

@@ -108,5 +108,7 @@ class Client {
 
 /// CLOCK_MONOTONIC now, nanoseconds.
 std::int64_t monotonicNs();
+/// Sleeps until CLOCK_MONOTONIC reaches t (ns; absolute, so a cycle's lateness does not add up).
+void sleepUntilNs(std::int64_t t);
 
 }  // namespace depowder::robot::bcap
