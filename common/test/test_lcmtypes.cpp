@@ -1,6 +1,7 @@
 // Every depowder type round-trips; truncated, corrupted and wrong-type buffers are
 // rejected and counted by the Bus, never crash it.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <random>
 
@@ -103,6 +104,46 @@ TEST(LcmTypes, PointCloudDropsNanAndRejectsBadHeader) {
   std::string why;
   EXPECT_FALSE(node::decodeCloud(m, &why));
   EXPECT_NE(why.find("resolution"), std::string::npos);
+}
+
+// The message's count of the array at `at` bytes from its end, set to `count`, then decoded.
+template <class Msg>
+int decodeWithCount(const Msg& m, std::size_t at, std::int32_t count) {
+  auto buf = encode(m);
+  for (int i = 0; i < 4; ++i) buf[buf.size() - at + i] = static_cast<std::uint8_t>(count >> (24 - 8 * i));
+  Msg out;
+  return out.decode(buf.data(), 0, static_cast<int>(buf.size()));
+}
+
+long peakRssKb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss;
+}
+
+// A count beyond the bytes left (or negative) is refused before the array is allocated: the
+// decoders as lcm-gen writes them resized first (1e8 points: 2.3 GB and 9 s for a 57-byte
+// message; a negative count threw). lcmtypes/bound_arrays.cmake adds the check.
+TEST(LcmTypes, ArrayCountBeyondTheMessageIsRefusedBeforeAllocating) {
+  point_cloud_t cloud{};  // ... num_points, xyz[], num_sources, sources[], source_utimes[]
+  cloud.frame = "cell";
+  heartbeat_t beat{};     // ... num_stats, stat_names[], stat_values[]
+  nozzle_plan_t plan{};   // ... num_waypoints, waypoints[]
+  progress_t progress{};  // ... num_contour, contour[][3], num_band, band[][3]
+  const long before = peakRssKb();
+  for (const std::int32_t count : {100000000, std::numeric_limits<std::int32_t>::max(), -1}) {
+    SCOPED_TRACE(count);
+    EXPECT_LT(decodeWithCount(cloud, 8, count), 0);  // num_points
+    EXPECT_LT(decodeWithCount(cloud, 4, count), 0);  // num_sources
+    EXPECT_LT(decodeWithCount(beat, 4, count), 0);
+    EXPECT_LT(decodeWithCount(plan, 4, count), 0);
+    EXPECT_LT(decodeWithCount(progress, 8, count), 0);  // num_contour
+    EXPECT_LT(decodeWithCount(progress, 4, count), 0);  // num_band
+  }
+  EXPECT_LT(peakRssKb() - before, 64 * 1024) << "kB of peak memory grown by decoding the messages above";
+  // A count that fits the bytes left is still read (and fails on the missing elements).
+  EXPECT_LT(decodeWithCount(plan, 4, 1), 0);
+  EXPECT_EQ(decodeWithCount(plan, 4, 0), static_cast<int>(encode(plan).size()));
 }
 
 TEST(LcmTypes, PartPose) {
