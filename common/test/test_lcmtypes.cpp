@@ -106,7 +106,8 @@ TEST(LcmTypes, PointCloudDropsNanAndRejectsBadHeader) {
   EXPECT_NE(why.find("resolution"), std::string::npos);
 }
 
-// The message's count of the array at `at` bytes from its end, set to `count`, then decoded.
+// The message's count (of an array, or a string's length) at `at` bytes from its end, set to
+// `count`, then decoded.
 template <class Msg>
 int decodeWithCount(const Msg& m, std::size_t at, std::int32_t count) {
   auto buf = encode(m);
@@ -123,7 +124,7 @@ long peakRssKb() {
 
 // A count beyond the bytes left (or negative) is refused before the array is allocated: the
 // decoders as lcm-gen writes them resized first (1e8 points: 2.3 GB and 9 s for a 57-byte
-// message; a negative count threw). lcmtypes/bound_arrays.cmake adds the check.
+// message; a negative count threw). lcmtypes/bound_lengths.cmake adds the check.
 TEST(LcmTypes, ArrayCountBeyondTheMessageIsRefusedBeforeAllocating) {
   point_cloud_t cloud{};  // ... num_points, xyz[], num_sources, sources[], source_utimes[]
   cloud.frame = "cell";
@@ -144,6 +145,19 @@ TEST(LcmTypes, ArrayCountBeyondTheMessageIsRefusedBeforeAllocating) {
   // A count that fits the bytes left is still read (and fails on the missing elements).
   EXPECT_LT(decodeWithCount(plan, 4, 1), 0);
   EXPECT_EQ(decodeWithCount(plan, 4, 0), static_cast<int>(encode(plan).size()));
+}
+
+// A string's length on the wire counts its NUL: 0 or below is refused, not thrown from
+// std::string::assign (as lcm-gen's decoders did; a log tool then stopped at the message).
+TEST(LcmTypes, StringLengthBelowOneIsRefused) {
+  part_pose_t pose{};  // hash, utime, then the length of `part`
+  pose.part = "pipe";
+  const std::size_t from_end = encode(pose).size() - 16;
+  for (const std::int32_t length : {0, -5, std::numeric_limits<std::int32_t>::min()}) {
+    SCOPED_TRACE(length);
+    EXPECT_LT(decodeWithCount(pose, from_end, length), 0);
+  }
+  EXPECT_EQ(decodeWithCount(pose, from_end, 5), static_cast<int>(encode(pose).size()));  // "pipe" and its NUL
 }
 
 TEST(LcmTypes, PartPose) {

@@ -2,6 +2,7 @@
 // tracker skipped counts against the coverage, not as a pose at the origin; a wrong pose fails.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -20,8 +21,9 @@ constexpr int kFrames = 50;
 constexpr std::int64_t kUtime0 = 1'000'000;
 
 // What depowder-tracker and depowder-progress publish for a cube sliding 1 mm a frame: PROGRESS
-// for every frame, PART_POSE for all but `skipped`; frame `off` 5 mm away from the rest's path.
-void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int off = -1) {
+// for every frame, PART_POSE for all but `skipped`; frame `off` 5 mm away from the rest's path;
+// after frame `corrupt` a PART_POSE whose part name has a length of 0 on the wire.
+void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int off = -1, int corrupt = -1) {
   lcm::LogFile log(path, "w");
   ASSERT_TRUE(log.good()) << path;
   for (int f = 0; f < kFrames; ++f) {
@@ -35,6 +37,14 @@ void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int
     }
     ASSERT_EQ(testutil::writeMessage(log, "PROGRESS", testutil::vacuumProgress("cube", utime, T, 0.5), utime + 6'000),
               0);
+    if (f == corrupt) {
+      const part_pose_t pose = testutil::trackingPose("cube", utime, T);
+      std::vector<std::uint8_t> data(static_cast<std::size_t>(pose.getEncodedSize()));
+      pose.encode(data.data(), 0, static_cast<int>(data.size()));
+      std::fill(data.begin() + 16, data.begin() + 20, 0);  // after the hash and utime: part's length
+      lcm::LogEvent e{0, utime + 7'000, "PART_POSE", static_cast<std::int32_t>(data.size()), data.data()};
+      ASSERT_EQ(log.writeEvent(&e), 0);
+    }
   }
 }
 
@@ -93,6 +103,16 @@ TEST_F(LogCheck, AFrameSkippedWhenRecordingIsNotExpected) {
   writeOutput(path("all.lcmlog"));
   EXPECT_EQ(compare(path("all.lcmlog"), &out), 0) << out;
   EXPECT_NE(out.find("expected 49 part-frames, replayed 50, matched 49 (100.0 %)"), std::string::npos) << out;
+}
+
+// A corrupt message is counted and skipped; the frames around it are still compared (its string
+// length of 0 used to throw from the decoder and stop the check).
+TEST_F(LogCheck, ACorruptMessageIsSkipped) {
+  writeOutput(path("corrupt.lcmlog"), {}, -1, 20);
+  std::string out;
+  EXPECT_EQ(compare(path("corrupt.lcmlog"), &out), 0) << out;
+  EXPECT_NE(out.find("1 undecodable or invalid messages"), std::string::npos) << out;
+  EXPECT_NE(out.find("matched 50 (100.0 %)"), std::string::npos) << out;
 }
 
 TEST_F(LogCheck, APoseBeyondTheToleranceFails) {
