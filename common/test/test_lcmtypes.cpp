@@ -111,7 +111,7 @@ TEST(LcmTypes, PointCloudDropsNanAndRejectsBadHeader) {
 template <class Msg>
 int decodeWithCount(const Msg& m, std::size_t at, std::int32_t count) {
   auto buf = encode(m);
-  for (int i = 0; i < 4; ++i) buf[buf.size() - at + i] = static_cast<std::uint8_t>(count >> (24 - 8 * i));
+  EXPECT_EQ(__int32_t_encode_array(buf.data(), static_cast<int>(buf.size() - at), 4, &count, 1), 4);
   Msg out;
   return out.decode(buf.data(), 0, static_cast<int>(buf.size()));
 }

@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "depowder/part_pose_t.hpp"
 #include "depowder/process_under_test.hpp"
@@ -38,12 +39,9 @@ void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int
     ASSERT_EQ(testutil::writeMessage(log, "PROGRESS", testutil::vacuumProgress("cube", utime, T, 0.5), utime + 6'000),
               0);
     if (f == corrupt) {
-      const part_pose_t pose = testutil::trackingPose("cube", utime, T);
-      std::vector<std::uint8_t> data(static_cast<std::size_t>(pose.getEncodedSize()));
-      pose.encode(data.data(), 0, static_cast<int>(data.size()));
+      std::vector<std::uint8_t> data = testutil::encoded(testutil::trackingPose("cube", utime, T));
       std::fill(data.begin() + 16, data.begin() + 20, 0);  // after the hash and utime: part's length
-      lcm::LogEvent e{0, utime + 7'000, "PART_POSE", static_cast<std::int32_t>(data.size()), data.data()};
-      ASSERT_EQ(log.writeEvent(&e), 0);
+      ASSERT_EQ(testutil::writeBytes(log, "PART_POSE", std::move(data), utime + 7'000), 0);
     }
   }
 }

@@ -41,13 +41,25 @@ inline progress_t vacuumProgress(const std::string& part, std::int64_t utime, co
   return m;
 }
 
+/// `msg` as it goes on the wire (and into a log).
+template <class Msg>
+std::vector<std::uint8_t> encoded(const Msg& msg) {
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(msg.getEncodedSize()));
+  msg.encode(data.data(), 0, static_cast<int>(data.size()));
+  return data;
+}
+
+/// Appends `data` on `channel` to `log` at `timestamp` (utime); LogFile::writeEvent's result (0: written).
+inline int writeBytes(lcm::LogFile& log, const std::string& channel, std::vector<std::uint8_t> data,
+                      std::int64_t timestamp) {
+  lcm::LogEvent e{0, timestamp, channel, static_cast<std::int32_t>(data.size()), data.data()};
+  return log.writeEvent(&e);
+}
+
 /// Appends `msg` on `channel` to `log` at `timestamp` (utime); LogFile::writeEvent's result (0: written).
 template <class Msg>
 int writeMessage(lcm::LogFile& log, const std::string& channel, const Msg& msg, std::int64_t timestamp) {
-  std::vector<std::uint8_t> data(static_cast<std::size_t>(msg.getEncodedSize()));
-  msg.encode(data.data(), 0, static_cast<int>(data.size()));
-  lcm::LogEvent e{0, timestamp, channel, static_cast<std::int32_t>(data.size()), data.data()};
-  return log.writeEvent(&e);
+  return writeBytes(log, channel, encoded(msg), timestamp);
 }
 
 }  // namespace depowder::testutil
