@@ -172,6 +172,7 @@ struct Sample {
   double own_cpu_ms;   ///< cpu_ms less the time of the Eq. 2 calls, which both trackers share
   TrackTiming steps;   ///< the tracker's own breakdown (zero for pcl)
   int iterations;      ///< ICP iterations (0 for pcl, which does not report them)
+  bool checked;        ///< the disagreement check ran (FilterConfig::check_every)
   double rot_deg, trans_cm;
   double visibility;
   std::string part;
@@ -292,9 +293,9 @@ int main(int argc, char** argv) {
 
       for (const std::string& method : opt.methods) {
         auto record = [&](const Pose& estimate, double ms, double cpu_ms, double register_ms, double eq2_ms, int k,
-                          const TrackTiming& steps, int iterations) {
+                          const TrackTiming& steps, int iterations, bool checked) {
           samples[method].push_back({ms, cpu_ms, register_ms, std::max(0.0, cpu_ms - eq2_ms), steps, iterations,
-                                     rotationAngle(estimate.linear(), truth[k].linear()) * 180 / M_PI,
+                                     checked, rotationAngle(estimate.linear(), truth[k].linear()) * 180 / M_PI,
                                      translationDistance(estimate, truth[k]) * 100, vis, name});
         };
         TrackerConfig config = base;
@@ -306,7 +307,7 @@ int main(int argc, char** argv) {
             const double w0 = wallMs(), c0 = threadCpuMs();
             const bench::PclFrame f = pcl.track(frames[k]);
             const double c1 = threadCpuMs(), w1 = wallMs();
-            record(f.T_cell_part, w1 - w0, c1 - c0, f.register_ms, f.progress_ms, k, TrackTiming{}, 0);
+            record(f.T_cell_part, w1 - w0, c1 - c0, f.register_ms, f.progress_ms, k, TrackTiming{}, 0, false);
           }
         } else {
           for (int k = 0; k < opt.frames; ++k) {
@@ -314,7 +315,7 @@ int main(int argc, char** argv) {
             const TrackResult r = tracker.track(frames[k]);
             const double c1 = threadCpuMs(), w1 = wallMs();
             record(r.T_cell_part, w1 - w0, c1 - c0, r.timing.crop_ms + r.timing.icp_ms, r.timing.progress_ms, k,
-                   r.timing, r.iterations);
+                   r.timing, r.iterations, r.checked);
           }
         }
       }
@@ -333,8 +334,8 @@ int main(int argc, char** argv) {
                 s.cpu_median, s.register_median, s.frames, s.rot_mean, s.trans_mean, s.rot_median, s.trans_median);
   }
   std::printf(
-      "\nmean wall time per step (ms): crop+grid, ICP, disagreement check (its second ICP), progress (Eq. 2),\n"
-      "template (Alg. 2); ICP iterations:\n");
+      "\nmean wall time per step (ms): crop+grid, ICP, disagreement check (its second ICP), lines of sight and\n"
+      "refit, progress (Eq. 2), template (Alg. 2); ICP iterations; frames the check ran on:\n");
   for (const std::string& m : opt.methods) {
     if (m == "pcl") continue;
     TrackTiming t;
@@ -342,13 +343,17 @@ int main(int argc, char** argv) {
       t.crop_ms += s.steps.crop_ms / samples[m].size();
       t.icp_ms += s.steps.icp_ms / samples[m].size();
       t.check_ms += s.steps.check_ms / samples[m].size();
+      t.sight_ms += s.steps.sight_ms / samples[m].size();
       t.progress_ms += s.steps.progress_ms / samples[m].size();
       t.template_ms += s.steps.template_ms / samples[m].size();
     }
-    double iterations = 0;
-    for (const Sample& s : samples[m]) iterations += static_cast<double>(s.iterations) / samples[m].size();
-    std::printf("%-11s %8.3f %8.3f %8.3f %8.3f %8.3f %8.1f\n", m.c_str(), t.crop_ms, t.icp_ms, t.check_ms,
-                t.progress_ms, t.template_ms, iterations);
+    double iterations = 0, checked = 0;
+    for (const Sample& s : samples[m]) {
+      iterations += static_cast<double>(s.iterations) / samples[m].size();
+      checked += (s.checked ? 100.0 : 0.0) / samples[m].size();
+    }
+    std::printf("%-11s %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8.1f %7.0f%%\n", m.c_str(), t.crop_ms, t.icp_ms, t.check_ms,
+                t.sight_ms, t.progress_ms, t.template_ms, iterations, checked);
   }
   std::printf("\nmean rotation error (deg) / translation error (cm) by visibility:\n%-11s", "method");
   for (double v : opt.visibilities) std::printf("   %5.0f%%      ", v * 100);
