@@ -2,9 +2,10 @@
 # Every benchmark, once, at its smallest size: it must finish and print its figures. No figure
 # is held to a goal here (speed and latency goals live in the benchmarks, whose figures need a
 # quiet machine and full-size runs); this catches a benchmark that a change broke, which no
-# other test runs. bench_camera_latency runs in a private network namespace and, on a run this
-# short, misses its own latency goal (its exit status then is 1), so it is checked only for
-# the line that reports on the goals after a full run.
+# other test runs. The two that talk LCM between processes over udpm (the driver's safety timing,
+# the camera's latency) run in a private network namespace (test/netns-run), as every such test
+# does. bench_camera_latency, on a run this short, misses its own latency goal (its exit status
+# then is 1), so it is checked only for the line that reports on the goals after a full run.
 #   test/bench_smoke.sh BIN_DIR NETNS_RUN
 set -u
 bin=$1; netns_run=$2
@@ -54,7 +55,7 @@ check sim 0 "world step, thread CPU time" "$bin/depowder-sim-bench" --frames 3
 check sim-physics 0 "real-time factor" "$bin/depowder-sim-physics-bench" --duration 1
 check perception 0 "per merged frame, CPU" "$bin/bench_perception" --frames 3
 check driver-jitter 0 "within 8 +- 1 ms" "$bin/depowder-driver-bench-jitter" --seconds 3 --no-realtime
-check driver-safety 0 "arm at rest (emulator)" "$bin/depowder-driver-bench-safety" --reps 1
+check driver-safety 0 "arm at rest (emulator)" "$netns_run" "$bin/depowder-driver-bench-safety" --reps 1
 check camera-latency any "goals (no POINTS lost" "$netns_run" "$bin/bench_camera_latency" --seconds 2
 
 [ -z "$failed" ] || { echo "benchmarks that failed:$failed"; exit 1; }

@@ -1,5 +1,6 @@
 // Safety timing of depowder-driver as a process, over udpm, against an in-process emulator.
-// Run it inside a private network namespace:  test/netns-run build/bin/depowder-driver-bench-safety
+// Run it inside a private network namespace (it refuses otherwise):
+//   test/netns-run build/bin/depowder-driver-bench-safety
 //   1. ESTOP publish -> the arm halted in the emulator (goal < 20 ms), --reps times.
 //   2. Last planner heartbeat -> controlled stop started (ROBOT_STATE reason) and -> the arm at
 //      rest in the emulator (goal: within planner_heartbeat_timeout + one 8 ms cycle), --reps times.
@@ -11,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "depowder/child_process.hpp"
 #include "depowder/estop_t.hpp"
 #include "depowder/robot_state_t.hpp"
 #include "driver_process.hpp"
@@ -37,6 +39,14 @@ int main(int argc, char** argv) {
   const double timeout_s = 1.0;
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--reps" && i + 1 < argc) reps = std::max(1, std::atoi(argv[++i]));
+  }
+  std::string why;
+  if (!testutil::inPrivateNetwork(&why)) {
+    std::fprintf(stderr,
+                 "depowder-driver-bench-safety: refusing to send multicast here (%s).\n"
+                 "Run it through test/netns-run.\n",
+                 why.c_str());
+    return 2;
   }
   test::DriverProcess p("  planner_heartbeat_timeout: " + std::to_string(timeout_s) + "\n  plan_max_age: 30\n");
   robot_state_t last{};
