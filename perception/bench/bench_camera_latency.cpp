@@ -33,14 +33,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--width")) width = std::atoi(argv[i + 1]);
     if (!std::strcmp(argv[i], "--height")) height = std::atoi(argv[i + 1]);
   }
-  std::string why;
-  if (!inPrivateNetwork(&why)) {
-    std::fprintf(stderr,
-                 "bench_camera_latency: refusing to send multicast here (%s).\n"
-                 "Run it through test/netns-run.\n",
-                 why.c_str());
-    return 2;
-  }
+  if (!privateNetworkOrRefuse("bench_camera_latency")) return 2;
   const fs::path bin = fs::canonical("/proc/self/exe").parent_path();
   const fs::path tmp = fs::temp_directory_path() / ("depowder_bench_camera_" + std::to_string(::getpid()));
   fs::create_directories(tmp);

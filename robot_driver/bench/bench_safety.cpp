@@ -40,14 +40,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--reps" && i + 1 < argc) reps = std::max(1, std::atoi(argv[++i]));
   }
-  std::string why;
-  if (!testutil::inPrivateNetwork(&why)) {
-    std::fprintf(stderr,
-                 "depowder-driver-bench-safety: refusing to send multicast here (%s).\n"
-                 "Run it through test/netns-run.\n",
-                 why.c_str());
-    return 2;
-  }
+  if (!testutil::privateNetworkOrRefuse("depowder-driver-bench-safety")) return 2;
   test::DriverProcess p("  planner_heartbeat_timeout: " + std::to_string(timeout_s) + "\n  plan_max_age: 30\n");
   robot_state_t last{};
   p.bus->subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t& m, const std::string&) { last = m; });

@@ -339,18 +339,17 @@ int main(int argc, char** argv) {
   for (const std::string& m : opt.methods) {
     if (m == "pcl") continue;
     TrackTiming t;
-    for (const Sample& s : samples[m]) {
-      t.crop_ms += s.steps.crop_ms / samples[m].size();
-      t.icp_ms += s.steps.icp_ms / samples[m].size();
-      t.check_ms += s.steps.check_ms / samples[m].size();
-      t.sight_ms += s.steps.sight_ms / samples[m].size();
-      t.progress_ms += s.steps.progress_ms / samples[m].size();
-      t.template_ms += s.steps.template_ms / samples[m].size();
-    }
     double iterations = 0, checked = 0;
     for (const Sample& s : samples[m]) {
-      iterations += static_cast<double>(s.iterations) / samples[m].size();
-      checked += (s.checked ? 100.0 : 0.0) / samples[m].size();
+      const double n = static_cast<double>(samples[m].size());
+      t.crop_ms += s.steps.crop_ms / n;
+      t.icp_ms += s.steps.icp_ms / n;
+      t.check_ms += s.steps.check_ms / n;
+      t.sight_ms += s.steps.sight_ms / n;
+      t.progress_ms += s.steps.progress_ms / n;
+      t.template_ms += s.steps.template_ms / n;
+      iterations += s.iterations / n;
+      checked += (s.checked ? 100.0 : 0.0) / n;
     }
     std::printf("%-11s %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8.1f %7.0f%%\n", m.c_str(), t.crop_ms, t.icp_ms, t.check_ms,
                 t.sight_ms, t.progress_ms, t.template_ms, iterations, checked);

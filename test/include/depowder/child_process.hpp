@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -47,6 +48,16 @@ inline bool inPrivateNetwork(std::string* why = nullptr) {
     for (const auto& o : others) *why += " " + o;
   }
   return others.empty();
+}
+
+/// For a program that talks udpm between processes (a benchmark): true inside a private network
+/// namespace; otherwise false, after telling stderr why `program` refuses to send multicast here.
+inline bool privateNetworkOrRefuse(const char* program) {
+  std::string why;
+  if (inPrivateNetwork(&why)) return true;
+  std::fprintf(stderr, "%s: refusing to send multicast here (%s).\nRun it through test/netns-run.\n", program,
+               why.c_str());
+  return false;
 }
 
 /// A child process (posix_spawn); stopped with SIGTERM (SIGKILL after 2 s) and reaped when
