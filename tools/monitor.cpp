@@ -258,14 +258,18 @@ int main(int argc, char** argv) {
         {"driver_faults", counter(processes, "depowder-driver", "faults")},
         {"driver_safety_stops", counter(processes, "depowder-driver", "safety_stops")},
         {"driver_estops", counter(processes, "depowder-driver", "estops")},
-        {"driver_reconnects", counter(processes, "depowder-driver", "reconnects")}};
+        {"driver_reconnects", counter(processes, "depowder-driver", "reconnects")},
+        {"driver_realtime", counter(processes, "depowder-driver", "realtime")}};  // 1: slave loop SCHED_FIFO
     auto shown = [](std::int64_t n) { return n < 0 ? std::string("-") : std::to_string(n); };
     std::printf(
         "  controller errors: slvMove late %s, joint limit %s, too fast %s; driver faults %s, safety stops %s, "
-        "E-stops %s, reconnects %s\n",
+        "E-stops %s, reconnects %s; slave loop SCHED_FIFO %s\n",
         shown(arm[0].second).c_str(), shown(arm[1].second).c_str(), shown(arm[2].second).c_str(),
         shown(arm[3].second).c_str(), shown(arm[4].second).c_str(), shown(arm[5].second).c_str(),
-        shown(arm[6].second).c_str());
+        shown(arm[6].second).c_str(),
+        arm[7].second < 0 ? "-"
+        : arm[7].second   ? "yes"
+                          : "no");
     std::printf("  POINTS seen %lld, lost %lld; PART_POSE frames missing %lld\n", static_cast<long long>(points_seen),
                 static_cast<long long>(points_lost), static_cast<long long>(poses_missing));
     std::printf(

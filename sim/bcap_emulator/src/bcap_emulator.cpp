@@ -528,13 +528,14 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
   if (arm_owner_ != connection) return error(req, hr::E_ARM_NOT_TAKEN, "slvMove");
   const bool sync = (slave_mode_ & 0x200) != 0;
 
-  // The late-command error: in sync mode the next command must come within late_limit_s.
-  if (sync && last_move_ns_ != 0 && arrival - last_move_ns_ > static_cast<std::int64_t>(config_.late_limit_s * 1e9)) {
-    // Whose the delay was: this emulator's (its last reply went out late) or the client's.
-    const std::string why = "slvMove " + std::to_string((arrival - last_move_ns_) / 1000) +
-                            " us after the previous cycle (" + std::to_string((last_reply_ns_ - last_move_ns_) / 1000) +
-                            " us to its reply, " + std::to_string((arrival - last_reply_ns_) / 1000) +
-                            " us from the reply to this request)";
+  // The late-command error: in sync mode the next command must come within late_limit_s of the
+  // previous one's reply. A real RC8 replies on its cycle; this emulator's reply leaves later when
+  // its own host stalls it (the thread wakes late), and that delay is not the client's: the
+  // client's time runs from the reply.
+  if (sync && last_move_ns_ != 0 && arrival - last_reply_ns_ > static_cast<std::int64_t>(config_.late_limit_s * 1e9)) {
+    const std::string why = "slvMove " + std::to_string((arrival - last_reply_ns_) / 1000) +
+                            " us after the previous reply (which left " +
+                            std::to_string((last_reply_ns_ - last_move_ns_) / 1000) + " us after its cycle)";
     ++stats_.late_errors;
     stopArmLocked(true);
     error_pending_ = true;
@@ -577,7 +578,7 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
       apply_at = std::max(cycle_origin_ns_ + k * cycle_ns, last_move_ns_ + cycle_ns);
     }
     lock.unlock();
-    sleepUntilNs(apply_at);
+    sleepUntilNs(apply_at + reply_stall_ns_.load());
     lock.lock();
     if (slave_mode_ == 0) return error(req, halted_ ? hr::E_HALTED : hr::E_NOT_SLAVE_MODE, "slvMove (stopped)");
   }

@@ -106,6 +106,9 @@ class BcapEmulator {
   void raiseError(const std::string& why);
   /// Closes every client connection (a cable pulled); the server keeps listening.
   void dropConnections();
+  /// Tests: each sync-mode slvMove reply leaves this long after its cycle, as when this
+  /// emulator's own host stalls it. Not the client's time: no late-command error for it.
+  void stallRepliesForTest(double seconds) { reply_stall_ns_ = static_cast<std::int64_t>(seconds * 1e9); }
 
   /// Handles one request as the server does (exposed for tests). `connection` identifies the
   /// caller for arm ownership. May block until the next cycle for a sync-mode slvMove, or for
@@ -155,8 +158,9 @@ class BcapEmulator {
   bool halted_ = false;
   bool error_pending_ = false;
   std::optional<std::chrono::steady_clock::time_point> halt_time_;
-  std::int64_t last_move_ns_ = 0;   ///< CLOCK_MONOTONIC of the last applied slvMove (its cycle)
-  std::int64_t last_reply_ns_ = 0;  ///< CLOCK_MONOTONIC when that slvMove's reply went out
+  std::int64_t last_move_ns_ = 0;                ///< CLOCK_MONOTONIC of the last applied slvMove (its cycle)
+  std::int64_t last_reply_ns_ = 0;               ///< CLOCK_MONOTONIC when that slvMove's reply went out
+  std::atomic<std::int64_t> reply_stall_ns_{0};  ///< stallRepliesForTest
   std::int64_t cycle_origin_ns_ = 0;
   std::int64_t slave_moves_ = 0;
   std::map<std::string, bool> io_;
