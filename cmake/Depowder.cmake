@@ -48,6 +48,8 @@ function(depowder_test name)
     set(ARG_TIMEOUT 300)
   endif()
   if(ARG_NETNS)
+    # udpm between processes: every test skips outside a private network namespace.
+    target_sources(${name} PRIVATE ${PROJECT_SOURCE_DIR}/test/private_network_env.cpp)
     add_test(NAME ${ARG_NETNS} COMMAND ${PROJECT_SOURCE_DIR}/test/netns-run $<TARGET_FILE:${name}>)
     set_tests_properties(${ARG_NETNS} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "netns;${ARG_LABELS}")
   else()

@@ -1,6 +1,6 @@
 // depowder-driver as a process against an in-process b-CAP emulator, over udpm: for the
-// process test and the safety benchmark. Run only inside a private network namespace
-// (test/netns-run), so the multicast never leaves it.
+// process test and the safety benchmark. Only inside a private network namespace
+// (test/netns-run), so the multicast never leaves it: elsewhere the constructor throws.
 #pragma once
 
 #include <chrono>
@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "depowder/child_process.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
@@ -26,6 +27,10 @@ class DriverProcess {
  public:
   /// `robot_yaml`: extra lines of the robot section (indented by two spaces).
   explicit DriverProcess(const std::string& robot_yaml = "") {
+    std::string why;
+    if (!testutil::inPrivateNetwork(&why))
+      throw std::runtime_error("DriverProcess: refusing to send multicast here (" + why +
+                               "); run it through test/netns-run");
     sim::BcapEmulatorConfig ecfg;
     ecfg.port = 0;
     ecfg.motor_on_time_s = 0.02;
