@@ -4,9 +4,10 @@
 # Checked from the run's summary.json: the monitor saw every part done, no nozzle-part contact,
 # no driver fault but the host's late slvMoves (below), no safety stop or ESTOP, and each
 # part's final pose and eta within the bounds below of the simulator's truth (the README's
-# measured row: 0.60 deg / 0.09 cm, eta 90.4 % against 90.0 %). The run directory (runs/...) is removed when the test passes and kept, with
-# its path printed, when it fails. scripts/demo builds into SOURCE_DIR/build, so the test runs
-# only from that build directory (it skips from any other: it would start a second build).
+# measured row: 0.60 deg / 0.09 cm, eta 90.4 % against 90.0 %). The run directory (runs/...)
+# is removed when the test passes and kept, with its path printed, when it fails. scripts/demo
+# builds into SOURCE_DIR/build, so the test runs only from that build directory (it skips from
+# any other: it would start a second build).
 #   test/demo.sh SOURCE_DIR BUILD_DIR
 set -u
 cd "$1"
@@ -39,6 +40,7 @@ done
 # one per 10 s of the run would be a driver that is slow of its own.
 late=$(value controller_late_errors)
 faults=$(value driver_faults)
+[ "${late:--1}" -ge 0 ] 2>/dev/null || fail "the controller's late slvMoves were not heard ($late)"
 [ "$faults" = "$late" ] || fail "driver faults ($faults) other than late slvMoves ($late)"
 awk -v n="$late" -v s="$(value elapsed_s)" 'BEGIN { exit !(n <= s / 10) }' ||
   fail "$late late slvMoves in $(value elapsed_s) s (at most one per 10 s)"
