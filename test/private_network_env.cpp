@@ -13,10 +13,8 @@ namespace {
 class PrivateNetworkOnly : public ::testing::Environment {
  public:
   void SetUp() override {
-    std::string why;
-    if (!depowder::testutil::inPrivateNetwork(&why))
-      GTEST_SKIP() << "not in a private network namespace (" << why
-                   << "): run it through test/netns-run (ctest does), so no multicast leaves this host";
+    if (const std::string refusal = depowder::testutil::multicastRefusal(); !refusal.empty())
+      GTEST_SKIP() << refusal << " (ctest does)";
   }
 };
 

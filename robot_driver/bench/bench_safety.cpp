@@ -9,10 +9,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
+#include <memory>
 #include <string>
 #include <vector>
 
-#include "depowder/child_process.hpp"
 #include "depowder/estop_t.hpp"
 #include "depowder/robot_state_t.hpp"
 #include "driver_process.hpp"
@@ -40,8 +41,16 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--reps" && i + 1 < argc) reps = std::max(1, std::atoi(argv[++i]));
   }
-  if (!testutil::privateNetworkOrRefuse("depowder-driver-bench-safety")) return 2;
-  test::DriverProcess p("  planner_heartbeat_timeout: " + std::to_string(timeout_s) + "\n  plan_max_age: 30\n");
+  // DriverProcess refuses outside a private network namespace (and fails if the emulator cannot bind).
+  std::unique_ptr<test::DriverProcess> process;
+  try {
+    process = std::make_unique<test::DriverProcess>("  planner_heartbeat_timeout: " + std::to_string(timeout_s) +
+                                                    "\n  plan_max_age: 30\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "depowder-driver-bench-safety: %s\n", e.what());
+    return 2;
+  }
+  test::DriverProcess& p = *process;
   robot_state_t last{};
   p.bus->subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t& m, const std::string&) { last = m; });
   auto last_hb = Clock::now() - std::chrono::seconds(10);

@@ -27,10 +27,8 @@ class DriverProcess {
  public:
   /// `robot_yaml`: extra lines of the robot section (indented by two spaces).
   explicit DriverProcess(const std::string& robot_yaml = "") {
-    std::string why;
-    if (!testutil::inPrivateNetwork(&why))
-      throw std::runtime_error("DriverProcess: refusing to send multicast here (" + why +
-                               "); run it through test/netns-run");
+    if (const std::string refusal = testutil::multicastRefusal(); !refusal.empty())
+      throw std::runtime_error("DriverProcess: " + refusal);
     sim::BcapEmulatorConfig ecfg;
     ecfg.port = 0;
     ecfg.motor_on_time_s = 0.02;

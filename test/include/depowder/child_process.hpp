@@ -50,14 +50,21 @@ inline bool inPrivateNetwork(std::string* why = nullptr) {
   return others.empty();
 }
 
-/// For a program that talks udpm between processes (a benchmark): true inside a private network
-/// namespace; otherwise false, after telling stderr why `program` refuses to send multicast here.
-inline bool privateNetworkOrRefuse(const char* program) {
+/// Why a program that talks udpm between processes must not run here: empty inside a private
+/// network namespace, otherwise the refusal, naming the interfaces seen. The one wording of the
+/// benchmarks' refusal, DriverProcess's and the netns gtest programs' skip.
+inline std::string multicastRefusal() {
   std::string why;
-  if (inPrivateNetwork(&why)) return true;
-  std::fprintf(stderr, "%s: refusing to send multicast here (%s).\nRun it through test/netns-run.\n", program,
-               why.c_str());
-  return false;
+  if (inPrivateNetwork(&why)) return {};
+  return "refusing to send multicast here (" + why + "); run it through test/netns-run";
+}
+
+/// For a benchmark that talks udpm between processes: true inside a private network namespace;
+/// otherwise false, after telling stderr why `program` refuses.
+inline bool privateNetworkOrRefuse(const char* program) {
+  const std::string refusal = multicastRefusal();
+  if (!refusal.empty()) std::fprintf(stderr, "%s: %s\n", program, refusal.c_str());
+  return refusal.empty();
 }
 
 /// A child process (posix_spawn); stopped with SIGTERM (SIGKILL after 2 s) and reaped when
