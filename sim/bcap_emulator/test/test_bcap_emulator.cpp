@@ -153,6 +153,27 @@ BcapEmulatorConfig testConfig() {
   return cfg;
 }
 
+// An emulator on a free loopback port and a client `c` in the session of REFERENCE.md (`s`),
+// in slave mode 0x202 unless mode() says otherwise.
+class SlaveSession : public ::testing::Test {
+ protected:
+  virtual int mode() const { return 0x202; }
+  void SetUp() override {
+    ASSERT_TRUE(started) << "the emulator could not listen on loopback";
+    s = openSession(c, mode());
+  }
+  BcapEmulator emu{testConfig()};
+  const bool started = emu.start();  // before c: the port is known once it listens
+  Client c{clientConfig(emu.port())};
+  Session s;
+};
+
+// The same in asynchronous mode (0x102): no cycle deadline.
+class AsyncSession : public SlaveSession {
+ protected:
+  int mode() const override { return 0x102; }
+};
+
 }  // namespace
 
 // The client's wire bytes for the session, byte for byte against packets built by hand
@@ -250,11 +271,7 @@ TEST(BcapEmulator, ConnectFailsClearly) {
   EXPECT_EQ(c.serviceStart("").status, CallStatus::NotConnected);
 }
 
-TEST(BcapEmulator, SlaveModeMovesTheArmOnTheCycle) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client c(clientConfig(emu.port()));
-  const Session s = openSession(c);
+TEST_F(SlaveSession, SlaveModeMovesTheArmOnTheCycle) {
   robot::Joints q = emu.joints().q;
   const auto t0 = std::chrono::steady_clock::now();
   const int n = 50;
@@ -284,11 +301,7 @@ TEST(BcapEmulator, SlaveModeMovesTheArmOnTheCycle) {
   EXPECT_FALSE(emu.halted());
 }
 
-TEST(BcapEmulator, LateCommandStopsTheArmUntilClearError) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client c(clientConfig(emu.port()));
-  const Session s = openSession(c);
+TEST_F(SlaveSession, LateCommandStopsTheArmUntilClearError) {
   const robot::Joints q = emu.joints().q;
   ASSERT_TRUE(move(c, s, q).ok());
   std::this_thread::sleep_for(std::chrono::milliseconds(30));
@@ -319,11 +332,7 @@ TEST(BcapEmulator, LateCommandStopsTheArmUntilClearError) {
 // A stall of the emulator's own host (its reply leaving 20 ms after the cycle) is not the
 // client's delay: a client that answers each reply at once is never late, though its commands
 // arrive more than late_limit_s (16 ms) after the previous cycle. The client's own 30 ms is.
-TEST(BcapEmulator, OwnStallIsNotTheClientsLateness) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client c(clientConfig(emu.port()));
-  const Session s = openSession(c);
+TEST_F(SlaveSession, OwnStallIsNotTheClientsLateness) {
   const robot::Joints q = emu.joints().q;
   ASSERT_TRUE(move(c, s, q).ok());
   emu.stallRepliesForTest(0.020);
@@ -336,22 +345,14 @@ TEST(BcapEmulator, OwnStallIsNotTheClientsLateness) {
   EXPECT_EQ(emu.stats().late_errors, 1);
 }
 
-TEST(BcapEmulator, AsyncModeHasNoLateError) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client c(clientConfig(emu.port()));
-  const Session s = openSession(c, 0x102);
+TEST_F(AsyncSession, HasNoLateError) {
   const robot::Joints q = emu.joints().q;
   ASSERT_TRUE(move(c, s, q).ok());
   std::this_thread::sleep_for(std::chrono::milliseconds(30));
   EXPECT_TRUE(move(c, s, q).ok());
 }
 
-TEST(BcapEmulator, RefusesTargetsOutsideLimitsAndTooFast) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client c(clientConfig(emu.port()));
-  const Session s = openSession(c);
+TEST_F(SlaveSession, RefusesTargetsOutsideLimitsAndTooFast) {
   robot::Joints q = emu.joints().q;
   const robot::Joints start = q;
   // Slightly past the J5 limit, from a pose already at it.
@@ -373,13 +374,10 @@ TEST(BcapEmulator, RefusesTargetsOutsideLimitsAndTooFast) {
   EXPECT_TRUE(emu.halted());
 }
 
-TEST(BcapEmulator, ArmOwnershipHaltAndDisconnect) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client a(clientConfig(emu.port())), b(clientConfig(emu.port()));
-  const Session sa = openSession(a);
+TEST_F(SlaveSession, ArmOwnershipHaltAndDisconnect) {
+  Client b(clientConfig(emu.port()));  // c owns the arm
   const robot::Joints q = emu.joints().q;
-  ASSERT_TRUE(move(a, sa, q).ok());
+  ASSERT_TRUE(move(c, s, q).ok());
   // A second client can connect and get the robot, but not take the arm.
   ASSERT_TRUE(b.connect().ok());
   const auto ctrl = b.controllerConnect("", "CaoProv.DENSO.VRC", "localhost", "").handle().value();
@@ -390,26 +388,22 @@ TEST(BcapEmulator, ArmOwnershipHaltAndDisconnect) {
   ASSERT_TRUE(b.robotHalt(rob).ok());
   EXPECT_TRUE(emu.halted());
   EXPECT_TRUE(emu.lastHaltTime().has_value());
-  EXPECT_EQ(move(a, sa, q).hresult, hr::E_HALTED);
+  EXPECT_EQ(move(c, s, q).hresult, hr::E_HALTED);
   // Re-entering slave mode clears the halt.
-  ASSERT_TRUE(a.robotExecute(sa.robot, "slvChangeMode", Variant::i4(0x202)).ok());
+  ASSERT_TRUE(c.robotExecute(s.robot, "slvChangeMode", Variant::i4(0x202)).ok());
   EXPECT_FALSE(emu.halted());
-  ASSERT_TRUE(move(a, sa, q).ok());
+  ASSERT_TRUE(move(c, s, q).ok());
   // The owner vanishes in slave mode: the arm stops and becomes free.
-  a.close();
+  c.close();
   for (int i = 0; i < 100 && !emu.halted(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   EXPECT_TRUE(emu.halted());
   EXPECT_FALSE(emu.joints().slave_mode);
   EXPECT_TRUE(b.robotExecute(rob, "TakeArm", Variant::i4Array({0, 1})).ok());
   // Handles of the closed connection are gone.
-  EXPECT_EQ(b.robotExecute(sa.robot, "CurJnt").hresult, hr::E_HANDLE);
+  EXPECT_EQ(b.robotExecute(s.robot, "CurJnt").hresult, hr::E_HANDLE);
 }
 
-TEST(BcapEmulator, ToolVariablesSwitchTheTool) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client c(clientConfig(emu.port()));
-  const Session s = openSession(c);
+TEST_F(SlaveSession, ToolVariablesSwitchTheTool) {
   EXPECT_FALSE(emu.tool().vacuum);
   ASSERT_TRUE(c.variablePutValue(s.vacuum, Variant::boolean(true)).ok());
   EXPECT_TRUE(emu.tool().vacuum);
@@ -425,11 +419,7 @@ TEST(BcapEmulator, ToolVariablesSwitchTheTool) {
   EXPECT_EQ(c.variablePutValue(s.air, Variant::boolean(false)).hresult, hr::E_HANDLE);
 }
 
-TEST(BcapEmulator, OrderlyShutdownAndSetJoints) {
-  BcapEmulator emu(testConfig());
-  ASSERT_TRUE(emu.start());
-  Client c(clientConfig(emu.port()));
-  const Session s = openSession(c);
+TEST_F(SlaveSession, OrderlyShutdownAndSetJoints) {
   EXPECT_FALSE(emu.setJoints({0, 0, 0, 0, 0, 0}));  // refused in slave mode
   ASSERT_TRUE(c.robotExecute(s.robot, "slvChangeMode", Variant::i4(0)).ok());
   ASSERT_TRUE(c.robotExecute(s.robot, "GiveArm").ok());
