@@ -150,13 +150,19 @@ int main(int argc, char** argv) {
             const Eigen::AngleAxisd aa(E.linear());
             const Eigen::Vector3d err_mm = 1000 * E.translation();
             const Eigen::Vector3d nozzle_mm = 1000 * (nozzle - truth_it->second.translation());  // from the part
+            // P_cad against the lines of sight, on the frames the refit ran ("-" on the others).
+            std::string sight = "-";
+            if (result) {
+              const tracker::SightCheck& c = result->sight;
+              if (c.seen + c.in_front + c.hidden + c.unknown > 0)
+                sight = std::to_string(c.seen) + "/" + std::to_string(c.in_front) + "/" + std::to_string(c.hidden);
+            }
             std::printf(
                 "%7.2f s  %-10s %-8s eta %.3f  err %6.2f deg about (%+.2f %+.2f %+.2f) %5.2f cm (%+.1f %+.1f %+.1f mm) "
                 " "
-                "inliers %.2f rms %.2f mm  sight %d/%d/%d  nozzle %s %+.0f %+.0f %+.0f mm%s%s%s%s%s  %s\n",
+                "inliers %.2f rms %.2f mm  sight %s  nozzle %s %+.0f %+.0f %+.0f mm%s%s%s%s%s  %s\n",
                 t, p.part.c_str(), status.c_str(), p.eta, dr, aa.axis().x(), aa.axis().y(), aa.axis().z(), dt,
-                err_mm.x(), err_mm.y(), err_mm.z(), p.inlier_ratio, 1e3 * p.fitness, result ? result->sight.seen : 0,
-                result ? result->sight.in_front : 0, result ? result->sight.hidden : 0,
+                err_mm.x(), err_mm.y(), err_mm.z(), p.inlier_ratio, 1e3 * p.fitness, sight.c_str(),
                 tool == waypoint_t::TOOL_AIR      ? "air"
                 : tool == waypoint_t::TOOL_VACUUM ? "vac"
                                                   : "off",

@@ -363,10 +363,13 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
         r, "fit refused: residual " + fixed(reg.rms * 1000, 1) + " mm > " + fixed(s.lost_max_rms * 1000, 1) + " mm"));
   // Not in the paper: the disagreement check (FilterConfig::reset_frames), the same scan
   // registered without the filter. A filter that holds a pushed part still never sees it move.
-  // A still part whose two fits agreed is checked every check_every-th frame only.
+  // A still part whose two fits agreed is checked (and refitted, below) every check_every-th
+  // frame only.
   bool reset = false;
   const FilterConfig& fc = config_.filter;
-  if (filter && fc.reset_frames > 0 && (moving_ || fits_disagreed_ || ++unchecked_frames_ >= fc.check_every)) {
+  const bool checking = filter && fc.reset_frames > 0;
+  const bool due = !checking || moving_ || fits_disagreed_ || ++unchecked_frames_ >= fc.check_every;
+  if (checking && due) {
     unchecked_frames_ = 0;
     t0 = Clock::now();
     const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
@@ -410,9 +413,11 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   // at the last pose; after a fast motion (a fall) it can keep a wrong one, and a template derived
   // there lacks the points that would correct it. So the whole CAD model is judged against the
   // cameras' lines of sight, fitted once more from the points the cameras should see without the
-  // filter, and that fit replaces ICP's when it explains the scan better by refit_margin.
+  // filter, and that fit replaces ICP's when it explains the scan better by refit_margin. It runs
+  // on the frames the check is due: every frame of a fall (the part moves), every check_every-th
+  // while a still part's fits agree.
   bool refitted = false;
-  if (!viewpoints.empty() && config_.refit_margin > 0 && eta_ >= config_.refit_min_eta) {
+  if (due && !viewpoints.empty() && config_.refit_margin > 0 && eta_ >= config_.refit_min_eta) {
     t0 = Clock::now();
     Eigen::AlignedBox3d region;  // the crop's box, cell frame
     for (int c = 0; c < 8; ++c)

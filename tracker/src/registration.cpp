@@ -128,7 +128,9 @@ LinearSystem linearize(const Surface& model, const Surface& scan, const std::vec
     J.head<3>() = (p - t).cross(dir);
     J.tail<3>() = dir;
     const double w = weight * robustWeight(r, s2);
-    sys.H.noalias() += (w * J) * J.transpose();  // fixed size: unrolled
+    const Vector6d wJ = w * J;
+    for (int c = 0; c < 6; ++c)  // the lower triangle only (symmetric; mirrored below)
+      for (int k = c; k < 6; ++k) sys.H(k, c) += wJ(k) * J(c);
     sys.g.noalias() += (w * r) * J;
     sys.sum_w += w;
     sys.sum_wr2 += w * r * r;
@@ -154,6 +156,7 @@ LinearSystem linearize(const Surface& model, const Surface& scan, const std::vec
     sys.sum_r2 += r * r;
     ++sys.matches;
   }
+  sys.H.triangularView<Eigen::StrictlyUpper>() = sys.H.transpose();
   return sys;
 }
 

@@ -53,12 +53,19 @@ std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::
   const Pose T_part_cell = T_cell_part.inverse(Eigen::Isometry);
   const Eigen::Array3d lo = box_part.min().array() - margin;
   const Eigen::Array3d hi = box_part.max().array() + margin;
+  // The grown box's cell-frame bounds (a hair wider): a point outside them is outside the box,
+  // and most of the scan is, so most points are refused without being transformed.
+  Eigen::AlignedBox3d near;
+  const Eigen::AlignedBox3d grown(lo.matrix(), hi.matrix());
+  for (int c = 0; c < 8; ++c) near.extend(T_cell_part * grown.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+  const Eigen::Array3d near_lo = near.min().array() - 1e-9, near_hi = near.max().array() + 1e-9;
   std::size_t non_finite = 0;
   for (const Point& p : scan) {
     if (!p.allFinite()) {
       ++non_finite;
       continue;
     }
+    if ((p.array() < near_lo).any() || (p.array() > near_hi).any()) continue;
     const Eigen::Array3d q = (T_part_cell * p).array();
     if ((q >= lo).all() && (q <= hi).all()) out.push_back(p);
   }

@@ -56,7 +56,8 @@ struct TrackResult {
   std::size_t scan_points = 0;          ///< scan points in the crop around the part
   UpdateDecision update;                ///< the policy's decision this frame (when ICP ran)
   SightCheck sight;                     ///< P_cad at the reported pose against the cameras' lines of sight
-                                        ///< (when the refit ran: eta >= refit_min_eta; zeros otherwise)
+                                        ///< (when the refit ran: eta >= refit_min_eta, on a frame the
+                                        ///< check was due; zeros otherwise)
   TrackTiming timing;
 };
 
