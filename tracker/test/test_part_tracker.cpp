@@ -522,6 +522,44 @@ TEST(PartTracker, RefitRecoversAWrongPoseOfADugOutPart) {
   EXPECT_GT(err_without, 15.0);
 }
 
+// The refit runs on the frames the disagreement check is due (every frame while the part moves
+// or its fits disagree, every check_every-th while a still part's fits agree), and every frame
+// without the check. A still, dug-out pipe tracked from its true pose: lines of sight judged only
+// on checked frames, and some frames not checked; the same pipe 30 deg off is still mended.
+TEST(PartTracker, RefitRunsWhenTheCheckIsDue) {
+  const Sequence s = makeSequence("pipe", 1.0, 16, 0.0, 0.0, 11);
+  auto judged = [](const TrackResult& r) {
+    return r.sight.seen + r.sight.in_front + r.sight.hidden + r.sight.unknown > 0;
+  };
+  PartTracker still("pipe", s.mesh, s.truth[0], 0.008, defaults());
+  int checked = 0, refit_frames = 0;
+  for (const Cloud& frame : s.frames) {
+    const TrackResult r = still.track(frame);
+    ASSERT_EQ(r.status, TrackStatus::kTracking) << r.reason;
+    EXPECT_EQ(judged(r), r.checked);  // eta 1 >= refit_min_eta: judged exactly when checked
+    checked += r.checked;
+    refit_frames += judged(r);
+  }
+  std::printf("still pipe, 16 frames: checked and refit-judged on %d, %d\n", checked, refit_frames);
+  EXPECT_GE(checked, 16 / defaults().filter.check_every);
+  EXPECT_LT(checked, 16);  // the gate skips some frames
+  TrackerConfig no_check = defaults();
+  no_check.filter.reset_frames = 0;
+  PartTracker unchecked("pipe", s.mesh, s.truth[0], 0.008, no_check);
+  for (const Cloud& frame : s.frames) EXPECT_TRUE(judged(unchecked.track(frame)));
+
+  Pose T_wrong = s.truth[0];
+  T_wrong.linear() = s.truth[0].linear() * Eigen::AngleAxisd(30.0 * M_PI / 180, Eigen::Vector3d::UnitZ());
+  PartTracker wrong("pipe", s.mesh, T_wrong, 0.008, defaults());
+  TrackResult last;
+  int refits = 0;
+  for (const Cloud& frame : s.frames) refits += (last = wrong.track(frame)).refit;
+  const double err = rotErrDeg(last.T_cell_part, s.truth.back());
+  std::printf("pipe 30 deg off, the check on: %.2f deg after 16 frames (%d refits)\n", err, refits);
+  EXPECT_GE(refits, 1);
+  EXPECT_LT(err, 4.0);
+}
+
 // The methods differ only in the update policy: CU-ICP with thresholds too small to miss any
 // change reproduces Continuous ICP bit for bit, and Vanilla ICP keeps the whole CAD model.
 TEST(PartTracker, MethodsDifferOnlyInTheUpdatePolicy) {
