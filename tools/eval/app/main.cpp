@@ -307,11 +307,20 @@ MovingOptions movingOptions(const Args& a, int trials) {
   return o;
 }
 
+// The part column: as wide as the longest name (a user's mesh may have a long one), at least 10.
+template <class Rows>
+int partWidth(const Rows& rows) {
+  std::size_t w = 10;
+  for (const auto& row : rows) w = std::max(w, row.part.size());
+  return static_cast<int>(w);
+}
+
 void printMoving(const MovingResult& r) {
-  std::printf("%-10s %-11s %5s %8s %12s %12s %9s\n", "part", "method", "vis", "success", "final deg", "final cm",
+  const int w = partWidth(r.rows);
+  std::printf("%-*s %-11s %5s %8s %12s %12s %9s\n", w, "part", "method", "vis", "success", "final deg", "final cm",
               "moved cm");
   for (const MovingRow& row : r.rows)
-    std::printf("%-10s %-11s %4.0f%% %7.0f%% %12.2f %12.3f %9.1f\n", row.part.c_str(), row.method.c_str(),
+    std::printf("%-*s %-11s %4.0f%% %7.0f%% %12.2f %12.3f %9.1f\n", w, row.part.c_str(), row.method.c_str(),
                 row.visibility * 100, row.success * 100, row.final_rot_err_deg, row.final_trans_err_cm, row.moved_cm);
   // Overall per method, over all the pushes, with the rate's 95 % interval (5 pushes a part leave it wide).
   std::vector<std::string> methods;
@@ -391,18 +400,20 @@ std::string readText(const std::string& path) {
 }
 
 void printStatic(const StaticResult& r) {
-  std::printf("%-10s %-11s %5s %9s %9s %9s %8s %8s %7s\n", "part", "method", "vis", "R_err deg", "tilt deg", "t_err cm",
-              "tracked", "updates", "ms");
+  const int w = partWidth(r.rows);
+  std::printf("%-*s %-11s %5s %9s %9s %9s %8s %8s %7s\n", w, "part", "method", "vis", "R_err deg", "tilt deg",
+              "t_err cm", "tracked", "updates", "ms");
   for (const StaticRow& row : r.rows)
-    std::printf("%-10s %-11s %4.0f%% %9.2f %9.2f %9.3f %8.2f %8.1f %7.2f\n", row.part.c_str(), row.method.c_str(),
+    std::printf("%-*s %-11s %4.0f%% %9.2f %9.2f %9.3f %8.2f %8.1f %7.2f\n", w, row.part.c_str(), row.method.c_str(),
                 row.visibility * 100, row.rot_err_deg, row.tilt_err_deg, row.trans_err_cm, row.tracked_fraction,
                 row.template_updates, row.track_ms);
 }
 
 void printSpeed(const SpeedResult& r) {
-  std::printf("%-10s %-11s %5s %14s %14s\n", "part", "method", "vis", "max cm/s", "max deg/s");
+  const int w = partWidth(r.rows);
+  std::printf("%-*s %-11s %5s %14s %14s\n", w, "part", "method", "vis", "max cm/s", "max deg/s");
   for (const SpeedRow& row : r.rows)
-    std::printf("%-10s %-11s %4.0f%% %14.1f %14.1f\n", row.part.c_str(), row.method.c_str(), row.visibility * 100,
+    std::printf("%-*s %-11s %4.0f%% %14.1f %14.1f\n", w, row.part.c_str(), row.method.c_str(), row.visibility * 100,
                 row.max_trans_speed_cm_s, row.max_rot_speed_deg_s);
 }
 
