@@ -152,10 +152,9 @@ int main(int argc, char** argv) {
             const Eigen::Vector3d nozzle_mm = 1000 * (nozzle - truth_it->second.translation());  // from the part
             // P_cad against the lines of sight, on the frames the refit ran ("-" on the others).
             std::string sight = "-";
-            if (result) {
+            if (result && result->sight.total() > 0) {
               const tracker::SightCheck& c = result->sight;
-              if (c.seen + c.in_front + c.hidden + c.unknown > 0)
-                sight = std::to_string(c.seen) + "/" + std::to_string(c.in_front) + "/" + std::to_string(c.hidden);
+              sight = std::to_string(c.seen) + "/" + std::to_string(c.in_front) + "/" + std::to_string(c.hidden);
             }
             std::printf(
                 "%7.2f s  %-10s %-8s eta %.3f  err %6.2f deg about (%+.2f %+.2f %+.2f) %5.2f cm (%+.1f %+.1f %+.1f mm) "

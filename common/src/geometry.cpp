@@ -59,6 +59,12 @@ Eigen::AlignedBox3d bounds(const Cloud& cloud) {
   return box;
 }
 
+Eigen::AlignedBox3d bounds(const Eigen::AlignedBox3d& box, const Pose& T) {
+  Eigen::AlignedBox3d out;
+  for (int c = 0; c < 8; ++c) out.extend(T * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+  return out;
+}
+
 Cloud transformed(const Cloud& cloud, const Pose& T) {
   Cloud out(cloud.size());
   std::transform(cloud.begin(), cloud.end(), out.begin(), [&](const Point& p) { return T * p; });

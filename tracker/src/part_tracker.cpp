@@ -419,9 +419,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   bool refitted = false;
   if (due && !viewpoints.empty() && config_.refit_margin > 0 && eta_ >= config_.refit_min_eta) {
     t0 = Clock::now();
-    Eigen::AlignedBox3d region;  // the crop's box, cell frame
-    for (int c = 0; c < 8; ++c)
-      region.extend(T_cell_part_ * cad_box_.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+    Eigen::AlignedBox3d region = bounds(cad_box_, T_cell_part_);  // the crop's box, cell frame
     region.min().array() -= config_.crop_margin;
     region.max().array() += config_.crop_margin;
     const SightImages images(scan, viewpoints, region);

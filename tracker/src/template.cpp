@@ -55,9 +55,7 @@ std::size_t cropToPart(const Cloud& scan, const Pose& T_cell_part, const Eigen::
   const Eigen::Array3d hi = box_part.max().array() + margin;
   // The grown box's cell-frame bounds (a hair wider): a point outside them is outside the box,
   // and most of the scan is, so most points are refused without being transformed.
-  Eigen::AlignedBox3d near;
-  const Eigen::AlignedBox3d grown(lo.matrix(), hi.matrix());
-  for (int c = 0; c < 8; ++c) near.extend(T_cell_part * grown.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+  const Eigen::AlignedBox3d near = bounds(Eigen::AlignedBox3d(lo.matrix(), hi.matrix()), T_cell_part);
   const Eigen::Array3d near_lo = near.min().array() - 1e-9, near_hi = near.max().array() + 1e-9;
   std::size_t non_finite = 0;
   for (const Point& p : scan) {

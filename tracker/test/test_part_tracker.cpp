@@ -528,9 +528,7 @@ TEST(PartTracker, RefitRecoversAWrongPoseOfADugOutPart) {
 // on checked frames, and some frames not checked; the same pipe 30 deg off is still mended.
 TEST(PartTracker, RefitRunsWhenTheCheckIsDue) {
   const Sequence s = makeSequence("pipe", 1.0, 16, 0.0, 0.0, 11);
-  auto judged = [](const TrackResult& r) {
-    return r.sight.seen + r.sight.in_front + r.sight.hidden + r.sight.unknown > 0;
-  };
+  auto judged = [](const TrackResult& r) { return r.sight.total() > 0; };
   PartTracker still("pipe", s.mesh, s.truth[0], 0.008, defaults());
   int checked = 0, refit_frames = 0;
   for (const Cloud& frame : s.frames) {

@@ -40,6 +40,9 @@ Pose makePoseRpy(const Eigen::Vector3d& t, double roll, double pitch, double yaw
 /// Axis-aligned bounds of a cloud.
 Eigen::AlignedBox3d bounds(const Cloud& cloud);
 
+/// Axis-aligned bounds of `box` posed by T (its eight corners moved).
+Eigen::AlignedBox3d bounds(const Eigen::AlignedBox3d& box, const Pose& T);
+
 /// p -> T * p for every point.
 Cloud transformed(const Cloud& cloud, const Pose& T);
 

@@ -18,6 +18,8 @@ struct SightCheck {
   int in_front = 0;  ///< in front of the scanned surface for some camera and seen by none: free space
   int hidden = 0;    ///< behind the scanned surface for every camera that looked (powder, the part itself)
   int unknown = 0;   ///< no camera faces it or no scan point along its line of sight
+  /// The points judged: 0 when no check was made (TrackResult::sight on a frame without the refit).
+  int total() const { return seen + in_front + hidden + unknown; }
 };
 
 /// The scan as range images, one per camera, over the lines of sight through `region` (cell
