@@ -338,10 +338,10 @@ void printMoving(const MovingResult& r) {
         }
     const auto [lo, hi] = wilsonInterval(successes, pushes);
     std::printf(
-        "overall    %-11s %.0f of %.0f pushes: %.0f %% (95 %% interval %.0f to %.0f %%); lost or degraded "
+        "%-*s %-11s %.0f of %.0f pushes: %.0f %% (95 %% interval %.0f to %.0f %%); lost or degraded "
         "at the end: %d of the %.0f failed, %d of the %.0f followed\n",
-        m.c_str(), successes, pushes, 100 * successes / pushes, 100 * lo, 100 * hi, flagged[0], pushes - successes,
-        flagged[1], successes);
+        w, "overall", m.c_str(), successes, pushes, 100 * successes / pushes, 100 * lo, 100 * hi, flagged[0],
+        pushes - successes, flagged[1], successes);
   }
   // Each failed push, numbered as --trace numbers its trials: how the push moved the part tells
   // why (a large turn or a tip), and the trace of that trial shows when the estimate left it.
@@ -356,7 +356,7 @@ void printMoving(const MovingResult& r) {
             row.trial_final_rot_err_deg[i], row.trial_final_trans_err_cm[i], row.trial_final_status[i].c_str());
   for (const MovingRow& row : r.rows)
     if (!row.probe_rot_err_deg.empty())
-      std::printf("probe %-10s %-11s %4zu fits from the truth: %.2f deg (p90 %.2f), %.3f cm\n", row.part.c_str(),
+      std::printf("probe %-*s %-11s %4zu fits from the truth: %.2f deg (p90 %.2f), %.3f cm\n", w, row.part.c_str(),
                   row.method.c_str(), row.probe_rot_err_deg.size(), row.probe_rot_mean_deg, row.probe_rot_p90_deg,
                   row.probe_trans_mean_cm);
 }
