@@ -21,7 +21,8 @@ class ScanIndex {
   };
 
   ScanIndex() = default;
-  /// `cell` (m) should be about the largest query radius. Non-finite points are skipped. The
+  /// `cell` (m): about the largest query radius or up to a few times it (the answers are the
+  /// same; only the time differs). Non-finite points are skipped. The
   /// cell grows if the bounds would need more than `max_cells` cells.
   ScanIndex(const Cloud& points, double cell, std::size_t max_cells = 1u << 22);
 
