@@ -31,6 +31,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
+// The nearest-neighbour grids have cells of this many times their largest query radius: the same
+// answers as cells of the radius, from fewer and fuller cells (depowder-bench: the scan's grid 7 %
+// faster a frame, the template's 5 % more; tracker/README.md).
+constexpr double kCellsOfRadii = 2;
+
 }  // namespace
 
 PartTracker::PartTracker(std::string name, const Mesh& mesh, const Pose& T_cell_part_init, double xi,
@@ -225,7 +230,7 @@ bool PartTracker::refit(const SightImages& images, const Surface& scan, double m
       refit_normals_.push_back(cad_sparse_normals_[i]);
     }
   if (refit_points_.size() < static_cast<std::size_t>(config_.icp.min_correspondences)) return false;
-  const ScanIndex refit_index(refit_points_, max_distance);
+  const ScanIndex refit_index(refit_points_, kCellsOfRadii * max_distance);
   const RegistrationResult reg =
       registerSurfaces({refit_points_, refit_normals_, refit_index}, scan, T_cell_part_, max_distance, config_.icp);
   if (!reg.ok() || !isValidPose(reg.T_target_source, 1e-6)) return false;
@@ -275,9 +280,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
                                 fixed(config_.crop_margin * 100, 1) + " cm of the part (need " +
                                 std::to_string(config_.min_scan_points) + ")"));
   const double max_distance = correspondenceDistance();
-  // Cells of twice the largest query radius: the searches' answers do not depend on it, and
-  // `depowder-bench` measured them 7 % faster a frame than cells of the radius (fewer, fuller cells).
-  const ScanIndex grid(crop_, 2 * std::max(max_distance, xi_));
+  const ScanIndex grid(crop_, kCellsOfRadii * std::max(max_distance, xi_));
   r.timing.crop_ms = msSince(t0);
 
   // Phase 1 (Sec. III-B): while eta <= eta1 no tracking; the initial pose is reported.
@@ -322,13 +325,14 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   visibleTemplate(icp_points_, icp_normals_, T_cell_part_, viewpoints, powder_, config_.visibility.powder_margin, &grid,
                   config_.visibility.cover, visible_points_, visible_normals_);
   if (visible_points_.empty()) return finish(refuse(r, "no template point faces a camera above the powder"));
-  const ScanIndex model_index(visible_points_, max_distance);
-  // Normals only where ICP can use them: scan points in the template's grid cells or next to them
-  // (cells of the correspondence distance; the pose moves little within a frame).
+  const ScanIndex model_index(visible_points_, kCellsOfRadii * max_distance);
+  // Normals only where ICP can use them: scan points in the template's grid cells or next to them,
+  // cells of the correspondence distance (the pose moves little within a frame).
+  const ScanIndex near_index(visible_points_, max_distance);
   const Pose T_part_cell = T_cell_part_.inverse(Eigen::Isometry);
   near_template_.resize(crop_.size());
   for (std::size_t j = 0; j < crop_.size(); ++j)
-    near_template_[j] = model_index.anyInNeighbourCells(T_part_cell * crop_[j]);
+    near_template_[j] = near_index.anyInNeighbourCells(T_part_cell * crop_[j]);
   crop_normals_ = scanNormals(grid, viewpoints, config_.icp.normal_radius, near_template_);
   // Not in the paper: while the part is still, an upward-facing scan point at the level of the
   // powder around it is taken for powder. Template points still pair with it (their own powder
