@@ -22,8 +22,8 @@ class ScanIndex {
 
   ScanIndex() = default;
   /// `cell` (m): about the largest query radius or up to a few times it (the answers are the
-  /// same; only the time differs). Non-finite points are skipped. The
-  /// cell grows if the bounds would need more than `max_cells` cells.
+  /// same, test_scan_index; only the time differs). Non-finite points are skipped. The cell
+  /// grows if the bounds would need more than `max_cells` cells.
   ScanIndex(const Cloud& points, double cell, std::size_t max_cells = 1u << 22);
 
   /// The nearest point within `radius` (m) of q (exact).
