@@ -1,9 +1,9 @@
 #!/bin/sh
 # depowder-launch: order, output capture, restart with back-off, give-up, ends_run,
-# LCM status, and a clean stop on SIGTERM that leaves no process behind.
+# LCM status, and a clean stop on SIGTERM, or the launcher's death, that leaves no process behind.
 set -eu
 BIN=$1
-rm -rf run1 run2
+rm -rf run1 run2 run3
 NAP=300.$$  # the sleepers' argument: no other process on the machine has it
 pass=0
 fail=0
@@ -49,6 +49,19 @@ start=$(date +%s)
 wait $launcher || true
 check "SIGTERM stops within 6 s" [ $(( $(date +%s) - start )) -le 6 ]
 check "no sleeper left after SIGTERM" sh -c "! pgrep -f '^sleep $NAP\$' > /dev/null"
+
+"$BIN/depowder-launch" deploy2.yaml --run-dir run3 --set NAP=$NAP > launch3.out 2>&1 &
+launcher=$!
+sleep 1
+check "sleeper running under the launcher" sh -c "pgrep -f '^sleep $NAP\$' > /dev/null"
+kill -KILL $launcher
+wait $launcher || true
+gone=no
+for _ in 1 2 3 4 5 6 7 8 9 10; do
+  if ! pgrep -f "^sleep $NAP\$" > /dev/null; then gone=yes; break; fi
+  sleep 0.2
+done
+check "no sleeper left after the launcher is killed (SIGKILL)" [ "$gone" = yes ]
 
 cat > bad.yaml <<'YAML'
 hosts:

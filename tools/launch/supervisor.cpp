@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -67,6 +68,7 @@ void Supervisor::start(Proc& p) {
     emit(p, std::string("launcher: pipe failed: ") + std::strerror(errno));
     return;
   }
+  const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) {
     emit(p, std::string("launcher: fork failed: ") + std::strerror(errno));
@@ -76,6 +78,10 @@ void Supervisor::start(Proc& p) {
   }
   if (pid == 0) {  // child: own process group (so a stop reaches its children), output into the pipe
     setpgid(0, 0);
+    // If the launcher dies without stopping it (SIGKILL, a crash), the process stops as on a
+    // stop: none runs on unsupervised, nor beside the one a launcher started again would start.
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) _exit(0);  // the launcher died before the line above
     dup2(fds[1], STDOUT_FILENO);
     dup2(fds[1], STDERR_FILENO);
     if (!options_.lcm_url.empty()) setenv("LCM_DEFAULT_URL", options_.lcm_url.c_str(), 1);

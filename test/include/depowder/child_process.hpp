@@ -8,12 +8,14 @@
 
 #include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -67,8 +69,8 @@ inline bool privateNetworkOrRefuse(const char* program) {
   return refusal.empty();
 }
 
-/// A child process (posix_spawn); stopped with SIGTERM (SIGKILL after 2 s) and reaped when
-/// destroyed.
+/// A child process; stopped with SIGTERM (SIGKILL after 2 s) and reaped when destroyed, and
+/// killed by the kernel if the test process dies first.
 class ChildProcess {
  public:
   /// Starts the executable argv[0] (a path, or a name looked up in PATH) with the rest as its
@@ -89,20 +91,42 @@ class ChildProcess {
     for (std::string& e : environment) envp.push_back(e.data());
     envp.push_back(nullptr);
 
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    if (!log_path.empty()) {
-      posix_spawn_file_actions_addopen(&actions, 1, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    }
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
-    const int rc = posix_spawnp(&pid_, args[0], &actions, nullptr, args.data(), envp.data());
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0) {
+    // fork + exec rather than posix_spawn, so the child can ask to be killed when the test dies
+    // without stopping it (a crash, ctest's timeout): a cell left running would load the machine
+    // for the tests after it. Between fork and exec only async-signal-safe calls. An exec that
+    // fails writes its errno to a close-on-exec pipe, so a missing program still throws here.
+    int report[2];
+    if (pipe2(report, O_CLOEXEC) != 0) throw std::runtime_error("cannot start " + argv[0] + ": pipe failed");
+    const pid_t parent = getpid();
+    pid_ = fork();
+    if (pid_ == 0) {
+      prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (getppid() != parent) _exit(127);  // the test died before the line above
+      if (!log_path.empty()) {
+        const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+          dup2(fd, 1);
+          dup2(fd, 2);
+          if (fd > 2) close(fd);
+        }
+      }
+      execvpe(args[0], args.data(), envp.data());
+      const int error = errno;
+      (void)!write(report[1], &error, sizeof error);
+      _exit(127);
+    }
+    close(report[1]);
+    int error = 0;
+    const bool exec_failed = pid_ > 0 && read(report[0], &error, sizeof error) == sizeof error;
+    close(report[0]);
+    if (pid_ < 0 || exec_failed) {
+      if (pid_ > 0) waitpid(pid_, nullptr, 0);
       pid_ = -1;
-      throw std::runtime_error("cannot start " + argv[0]);
+      throw std::runtime_error("cannot start " + argv[0] +
+                               (exec_failed ? std::string(": ") + std::strerror(error) : ""));
     }
   }
   ~ChildProcess() {
