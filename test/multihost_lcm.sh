@@ -1,5 +1,6 @@
 #!/bin/sh
-# LCM with ?ttl=1 crosses test hosts joined by a bridge, and stops when a host's link is cut.
+# LCM with ?ttl=1 crosses test hosts joined by a bridge, and stops when a host's link is cut;
+# depowder-status tells a host whose clock runs ahead (faketime: its wall clock 3 s ahead).
 set -eu
 BIN=$1
 H=$(dirname "$0")/netns-hosts
@@ -13,6 +14,22 @@ pass=0; fail=0
 sleep 0.5
 "$H" exec $T 3 "$BIN/depowder-estop" stop --reason multihost
 if wait $p; then pass=$((pass+1)); echo "ok: host 3 -> host 1"; else fail=$((fail+1)); echo "FAILED: host 3 -> host 1"; fi
+# The clocks: the same machine's (under 50 ms apart), then host 3's wall clock set 3 s ahead.
+clock_ms() {  # prints the clock difference depowder-status reports for depowder-estop, sent by "$@"
+  "$H" exec $T 1 "$BIN/depowder-status" --wait-for depowder-estop --timeout 5 > clock.out & p=$!
+  sleep 0.5
+  "$H" exec $T 3 "$@" "$BIN/depowder-estop" stop --reason clock > /dev/null
+  wait $p && sed -n 's/.*its clock \([-+0-9.]*\) ms.*/\1/p' clock.out
+}
+command -v faketime > /dev/null || { echo "FAILED: faketime is not installed (scripts/install-deps)"; exit 1; }
+same=$(clock_ms env) || same=""
+ahead=$(clock_ms env FAKETIME_DONT_FAKE_MONOTONIC=1 faketime -f +3s) || ahead=""
+echo "clock difference: same clock ${same:-?} ms, host 3 set 3 s ahead ${ahead:-?} ms"
+if awk -v a="$same" -v b="$ahead" 'BEGIN { exit !(a != "" && b != "" && a > -50 && a < 50 && b > 2950 && b < 3050) }'; then
+  pass=$((pass+1)); echo "ok: clock differences"
+else
+  fail=$((fail+1)); echo "FAILED: clock differences"
+fi
 "$H" cut $T 3
 "$H" exec $T 1 "$BIN/depowder-status" --wait-for depowder-estop --timeout 2 & p=$!
 sleep 0.5

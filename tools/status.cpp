@@ -1,6 +1,8 @@
-// depowder-status: a live table of every process's heartbeat (state, counters, CPU, memory).
+// depowder-status: a live table of every process's heartbeat (state, counters, CPU, memory, and
+// how far its host's clock is from this one's).
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <map>
 
@@ -11,6 +13,19 @@
 
 namespace {
 
+// A heartbeat and when it arrived (this host's clock).
+struct Heard {
+  depowder::heartbeat_t h;
+  std::int64_t arrived_utime = 0;
+  // The sender's clock less this host's, ms: its utime is stamped as it is sent, so this is the
+  // clocks' difference plus the transit time (well under a millisecond on a LAN).
+  double clockMs() const { return (h.utime - arrived_utime) * 1e-3; }
+};
+
+// Beyond this the hosts' clocks disagree enough to matter: the driver measures a plan's age
+// from its camera frame's utime (robot.plan_max_age, plan_max_lead).
+constexpr double kClockWarnMs = 100;
+
 const char* stateName(int s) {
   static const char* names[] = {"starting", "running", "degraded", "stopping", "failed"};
   return s >= 0 && s <= 4 ? names[s] : "?";
@@ -19,7 +34,9 @@ const char* stateName(int s) {
 int usage(const char* error = nullptr) {
   if (error) std::cerr << "depowder-status: " << error << "\n";
   std::cerr << "usage: depowder-status [--wait-for PROCESS] [--timeout S] [--once] [--url URL] [--prefix P]\n"
-               "  Prints one line per process heard on HEARTBEAT, refreshed every second.\n"
+               "  Prints one line per process heard on HEARTBEAT, refreshed every second: age of its last\n"
+               "  heartbeat, counters, CPU, memory, and clock_ms, its host's clock less this host's (a\n"
+               "  difference beyond 100 ms is flagged: plan ages in the driver need agreeing clocks).\n"
                "  --wait-for P  exit 0 as soon as a heartbeat from process P arrives (1 on timeout)\n"
                "  --once        print the table once after --timeout seconds (default 2) and exit\n";
   return error ? 2 : 0;
@@ -54,21 +71,33 @@ int main(int argc, char** argv) {
   try {
     depowder::node::installShutdownHandlers();
     depowder::node::Bus bus(url, prefix);
-    std::map<std::string, depowder::heartbeat_t> last;  // by "process@host:pid"
-    bool seen = false;
+    std::map<std::string, Heard> last;  // by "process@host:pid"
+    const Heard* seen = nullptr;
     bus.subscribe<depowder::heartbeat_t>("HEARTBEAT", [&](const depowder::heartbeat_t& h, const std::string&) {
-      last[h.process + "@" + h.host + ":" + std::to_string(h.pid)] = h;
-      if (h.process == wait_for) seen = true;
+      Heard& heard = last[h.process + "@" + h.host + ":" + std::to_string(h.pid)];
+      heard = {h, depowder::node::nowUtime()};
+      if (h.process == wait_for) seen = &heard;
     });
     auto print = [&] {
       const std::int64_t now = depowder::node::nowUtime();
-      std::printf("%-34s %-9s %7s %9s %9s %7s %8s %6s %8s  %s\n", "process@host:pid", "state", "age_s", "received",
-                  "published", "decode", "dropped", "cpu%", "rss_MB", "reason");
-      for (const auto& [key, h] : last)
-        std::printf("%-34s %-9s %7.1f %9lld %9lld %7lld %8lld %6.1f %8.1f  %s\n", key.c_str(), stateName(h.state),
-                    (now - h.utime) * 1e-6, static_cast<long long>(h.received), static_cast<long long>(h.published),
-                    static_cast<long long>(h.decode_errors), static_cast<long long>(h.dropped), h.cpu_percent,
-                    h.peak_rss_kb / 1024.0, h.state_reason.c_str());
+      std::printf("%-34s %-9s %7s %9s %9s %7s %8s %6s %8s %9s  %s\n", "process@host:pid", "state", "age_s", "received",
+                  "published", "decode", "dropped", "cpu%", "rss_MB", "clock_ms", "reason");
+      std::string apart;
+      for (const auto& [key, heard] : last) {
+        const depowder::heartbeat_t& h = heard.h;
+        std::printf("%-34s %-9s %7.1f %9lld %9lld %7lld %8lld %6.1f %8.1f %+9.1f  %s\n", key.c_str(),
+                    stateName(h.state), (now - heard.arrived_utime) * 1e-6, static_cast<long long>(h.received),
+                    static_cast<long long>(h.published), static_cast<long long>(h.decode_errors),
+                    static_cast<long long>(h.dropped), h.cpu_percent, h.peak_rss_kb / 1024.0, heard.clockMs(),
+                    h.state_reason.c_str());
+        if (std::abs(heard.clockMs()) > kClockWarnMs && apart.find(h.host) == std::string::npos)
+          apart += (apart.empty() ? "" : ", ") + h.host;
+      }
+      if (!apart.empty())
+        std::printf(
+            "clocks: %s differ from this host's by more than %.0f ms; synchronise them (chrony, PTP): the "
+            "driver judges a plan's age by its camera frame's time\n",
+            apart.c_str(), kClockWarnMs);
       std::fflush(stdout);
     };
     const auto start = std::chrono::steady_clock::now();
@@ -76,7 +105,8 @@ int main(int argc, char** argv) {
     while (!depowder::node::shutdownRequested()) {
       bus.spinOnce(50);
       if (!wait_for.empty() && seen) {
-        std::cout << "heard " << wait_for << "\n";
+        std::printf("heard %s on %s (its clock %+.1f ms from this host's)\n", wait_for.c_str(), seen->h.host.c_str(),
+                    seen->clockMs());
         return 0;
       }
       const auto now = std::chrono::steady_clock::now();

@@ -84,6 +84,7 @@ RobotSection readRobotSection(const node::CellConfig& cell) {
     r.fail("workspace", "min must be below max on every axis");
   r.read("workspace_margin", d.safety.workspace_margin, 0.0, 0.1);
   r.read("plan_max_age", d.safety.plan_max_age_s, 0.05, 60.0);
+  r.read("plan_max_lead", d.safety.plan_max_lead_s, 0.001, 60.0);
   r.read("planner_heartbeat_timeout", d.safety.planner_heartbeat_timeout_s, 0.05, 60.0);
   r.read("require_planner_heartbeat", d.safety.require_planner_heartbeat);
   r.read("limit_tolerance", d.safety.limit_tolerance, 1.0, 1.5);

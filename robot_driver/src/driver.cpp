@@ -70,6 +70,11 @@ PlanResult Driver::submitPlan(const Plan& plan) {
   // (the planner's hold, sent before it has a frame to plan from): taken whatever its age.
   if (!plan.waypoints.empty()) {
     const SafetyVerdict fresh = checkNewPlan(cfg_.safety, wall_(), plan.utime, hb_age);
+    if (fresh.stop == StopReason::PlanStale && plan.utime > 0)
+      return refuse(PlanStatus::Empty,
+                    fresh.reason +
+                        " on arrival: the cell's frames are that late, or the clock of the host that "
+                        "stamped it runs behind this host's");
     if (fresh.stop != StopReason::None) return refuse(PlanStatus::Empty, fresh.reason);
   }
 

@@ -56,6 +56,8 @@ const char* toString(StopReason r) {
       return "none";
     case StopReason::PlanStale:
       return "plan stale";
+    case StopReason::ClockAhead:
+      return "plan ahead of this host's clock";
     case StopReason::HeartbeatLost:
       return "planner heartbeat lost";
     case StopReason::Workspace:
@@ -67,11 +69,20 @@ const char* toString(StopReason r) {
 SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std::int64_t plan_utime,
                            double heartbeat_age_s) {
   SafetyVerdict v;
-  char buf[160];
+  char buf[256];
   const double age = static_cast<double>(now_utime - plan_utime) * 1e-6;
   if (plan_utime <= 0) {
     v.stop = StopReason::PlanStale;
     v.reason = "plan has no source frame time (utime " + std::to_string(plan_utime) + ")";
+  } else if (age < -cfg.plan_max_lead_s) {
+    // Its camera frame cannot come from the future: the hosts' clocks disagree, and a plan age
+    // measured across them would let a stale plan run on for as long as they differ.
+    std::snprintf(buf, sizeof buf,
+                  "plan's camera frame is %.3f s ahead of this host's clock (limit %.3f s): the clock of the host "
+                  "that stamped it runs ahead; synchronise the hosts' clocks (chrony, PTP)",
+                  -age, cfg.plan_max_lead_s);
+    v.stop = StopReason::ClockAhead;
+    v.reason = buf;
   } else if (age > cfg.plan_max_age_s) {
     std::snprintf(buf, sizeof buf, "plan is %.3f s old (limit %.3f s)", age, cfg.plan_max_age_s);
     v.stop = StopReason::PlanStale;

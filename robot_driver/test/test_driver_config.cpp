@@ -36,6 +36,8 @@ TEST(DriverConfig, DefaultCellRobotSection) {
   EXPECT_NEAR(s.driver.arm.T_flange_nozzle.translation().z(), 0.25, 1e-12);  // end effector + tube
   EXPECT_GE(s.node.state_rate_hz, 125.0);
   EXPECT_EQ(s.driver.session.vacuum_variable, "IO24");
+  EXPECT_DOUBLE_EQ(s.driver.safety.plan_max_age_s, 1.5);
+  EXPECT_DOUBLE_EQ(s.driver.safety.plan_max_lead_s, 0.25);
   // Home: within limits, nozzle inside the workspace, pointing down.
   const Pose home = forwardNozzle(s.driver.arm, s.driver.arm.q_home);
   EXPECT_TRUE(s.driver.safety.workspace.contains(home.translation()));
@@ -76,6 +78,7 @@ TEST(DriverConfig, BasePoseReachesTheWholeBoxPointingDown) {
 
 TEST(DriverConfig, RefusesBadValues) {
   expectError("  bogus: 1\n", "bogus");
+  expectError("  plan_max_lead: 0\n", "plan_max_lead");
   expectError("  controller: {port: 0}\n", "port");
   expectError("  controller: {slave_mode: 513}\n", "slave_mode");
   expectError("  q_min: [0, 0, 0]\n", "6 numbers");

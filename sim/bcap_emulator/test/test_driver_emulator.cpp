@@ -221,6 +221,44 @@ TEST(DriverEmulator, StalePlanBringsAControlledStop) {
   EXPECT_TRUE(rig.waitMode(DriverMode::Idle, 1.0));
 }
 
+// Plan ages are measured across hosts: the camera frame's utime (the host that stamped it)
+// against this host's clock. A plan from the future means the clocks disagree, and an age
+// measured across them would let a stale plan run on for as long as they differ: refused, and
+// said so. Within plan_max_lead (clocks a little apart) it runs.
+TEST(DriverEmulator, RefusesAPlanFromAheadOfItsClock) {
+  Rig rig([](DriverConfig& c) {
+    c.safety.plan_max_age_s = 1.5;
+    c.safety.plan_max_lead_s = 0.25;
+  });
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  const Joints q0 = rig.emu().joints().q;
+  for (std::int64_t lead_us : {2'000'000LL, 3'600'000'000LL, 4'000'000'000'000'000LL}) {  // 2 s, 1 h, garbage
+    Plan ahead = linePlan(1, {{0.0, 0.0, 0.25}}, 0.2);
+    ahead.utime += lead_us;
+    const PlanResult r = rig.driver().submitPlan(ahead);
+    EXPECT_FALSE(r.accepted) << lead_us;
+    EXPECT_NE(r.reason.find("ahead of this host's clock"), std::string::npos) << r.reason;
+    EXPECT_NE(r.reason.find("synchronise"), std::string::npos) << r.reason;
+  }
+  std::this_thread::sleep_for(100ms);
+  EXPECT_EQ(rig.emu().joints().q, q0);
+  EXPECT_EQ(rig.driver().status().mode, DriverMode::Idle);
+  EXPECT_EQ(rig.driver().status().stats.plans_refused, 3);
+  // Behind by more than plan_max_age: refused as stale on arrival, naming a late clock as a cause.
+  Plan behind = linePlan(2, {{0.0, 0.0, 0.25}}, 0.2);
+  behind.utime -= 2'000'000;
+  const PlanResult late = rig.driver().submitPlan(behind);
+  EXPECT_FALSE(late.accepted);
+  EXPECT_NE(late.reason.find("old"), std::string::npos) << late.reason;
+  EXPECT_NE(late.reason.find("runs behind"), std::string::npos) << late.reason;
+  // 0.2 s ahead: within the limit, it runs.
+  Plan near = linePlan(3, {{0.0, 0.0, 0.25}}, 0.2);
+  near.utime += 200'000;
+  const PlanResult ok = rig.driver().submitPlan(near);
+  ASSERT_TRUE(ok.accepted) << ok.reason;
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({0.0, 0.0, 0.25}); }, 8.0));
+}
+
 // The planner's hold (no waypoints; before its first frame it has no source time) is a
 // controlled stop: taken whatever its age, where a plan with waypoints would be refused.
 TEST(DriverEmulator, AnEmptyPlanStopsWhateverItsAge) {

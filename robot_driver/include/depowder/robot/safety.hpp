@@ -13,9 +13,12 @@
 namespace depowder::robot {
 
 struct SafetyConfig {
-  Workspace workspace;                       ///< the nozzle tip must stay inside (cell frame)
-  double workspace_margin = 0.005;           ///< m, tolerance of the per-cycle check of the command
-  double plan_max_age_s = 1.5;               ///< s, a plan whose utime is older than this is stale: stop
+  Workspace workspace;              ///< the nozzle tip must stay inside (cell frame)
+  double workspace_margin = 0.005;  ///< m, tolerance of the per-cycle check of the command
+  double plan_max_age_s = 1.5;      ///< s, a plan whose utime is older than this is stale: stop
+  /// s, a plan whose utime is further ahead of this host's clock than this is refused: the clock of
+  /// the host that stamped its camera frame runs ahead of this one's (plan ages need agreeing clocks)
+  double plan_max_lead_s = 0.25;
   double planner_heartbeat_timeout_s = 1.0;  ///< s without a planner heartbeat: stop
   bool require_planner_heartbeat = true;     ///< false: ignore heartbeats (bench tests without a planner)
   double limit_tolerance = 1.02;  ///< commands up to this factor over a speed/acceleration limit pass unclipped
@@ -55,6 +58,7 @@ class CommandLimiter {
 enum class StopReason {
   None,
   PlanStale,      ///< the executing plan is older than plan_max_age_s
+  ClockAhead,     ///< the plan's utime is ahead of this host's clock by more than plan_max_lead_s
   HeartbeatLost,  ///< no planner heartbeat for planner_heartbeat_timeout_s
   Workspace,      ///< the commanded nozzle left the workspace box
 };
@@ -81,7 +85,8 @@ struct SafetyVerdict {
 /// `stop_lead_s` early, so that the arm is at rest when the limit is reached.
 SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in);
 
-/// Whether a newly received plan may be executed at all (fresh enough, planner alive).
+/// Whether a newly received plan may be executed at all (fresh enough, not from the future,
+/// planner alive).
 SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std::int64_t plan_utime,
                            double heartbeat_age_s);
 
