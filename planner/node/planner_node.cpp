@@ -31,6 +31,7 @@ PlannerNodeOptions readPlannerOptions(const node::CellConfig& cell) {
   // The arm and the workspace as the driver reads them (one reader for both processes).
   const robot::RobotSection robot = robot::readRobotSection(cell);
   o.arm = robot.driver.arm;
+  o.arm_model = robot::armModelId(robot.driver.arm, robot.driver.safety.workspace);
   PlannerConfig& c = o.planner;
   const double ws_margin = robot.driver.safety.workspace_margin;
   c.collision.workspace_min = robot.driver.safety.workspace.min + Eigen::Vector3d::Constant(ws_margin);

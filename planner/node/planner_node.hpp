@@ -18,6 +18,7 @@ namespace depowder::planner {
 struct PlannerNodeOptions {
   PlannerConfig planner;
   robot::ArmConfig arm;           ///< from the `robot` section (the driver's reader)
+  double arm_model = 0;           ///< robot::armModelId of that arm and the workspace, for the driver
   double heartbeat_period = 0.5;  ///< s
 };
 

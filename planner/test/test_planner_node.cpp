@@ -8,6 +8,7 @@
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/parts.hpp"
+#include "driver_config.hpp"
 #include "planner_node.hpp"
 
 using namespace depowder;
@@ -39,6 +40,10 @@ TEST(PlannerOptions, DefaultCellSectionMatchesTheStructDefaults) {
   // The workspace is the driver's, less its margin.
   EXPECT_NEAR(o.planner.collision.workspace_max.x(), 0.195, 1e-12);
   EXPECT_NEAR(o.planner.collision.workspace_min.y(), -0.145, 1e-12);
+  // The arm_model of its heartbeat is what the driver reading the same file computes for itself.
+  const robot::RobotSection robot = robot::readRobotSection(cell);
+  EXPECT_EQ(o.arm_model, robot::armModelId(robot.driver.arm, robot.driver.safety.workspace));
+  EXPECT_GT(o.arm_model, 0);
 }
 
 TEST(PlannerOptions, RejectsUnknownKeysAndBadValues) {

@@ -6,6 +6,7 @@
 #include <sched.h>
 
 #include <atomic>
+#include <cstdio>
 #include <cstring>
 #include <iostream>
 #include <thread>
@@ -148,8 +149,22 @@ int main(int argc, char** argv) {
       std::cerr << "depowder-driver: ESTOP " << (msg.stop ? "STOP" : "reset") << " from " << msg.source << ": "
                 << msg.reason << std::endl;
     });
+    // The planner's heartbeat says which arm and workspace it plans for (armModelId, from its own
+    // cell file on its own host): another than this driver's does not count, and says why.
+    const double arm_model = robot::armModelId(section.driver.arm, section.driver.safety.workspace);
     bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& msg, const std::string&) {
-      if (msg.process == opt.planner_process) driver.plannerHeartbeat();
+      if (msg.process != opt.planner_process) return;
+      std::string mismatch;
+      for (int i = 0; i < msg.num_stats && i < static_cast<int>(msg.stat_values.size()); ++i)
+        if (msg.stat_names[i] == "arm_model" && msg.stat_values[i] != arm_model) {
+          char buf[320];
+          std::snprintf(buf, sizeof buf,
+                        "%s on %s plans for another arm or workspace (arm_model %.0f, this driver's %.0f): the robot "
+                        "sections of the hosts' cell files differ (base pose, tool, joint limits, workspace)",
+                        msg.process.c_str(), msg.host.c_str(), msg.stat_values[i], arm_model);
+          mismatch = buf;
+        }
+      driver.plannerHeartbeat(mismatch);
     });
     heartbeat.setState(heartbeat_t::STARTING, "connecting to the controller");
     heartbeat.publish();
@@ -199,9 +214,11 @@ int main(int argc, char** argv) {
       heartbeat.setStat("faults", static_cast<double>(s.faults));
       heartbeat.setStat("realtime", realtime ? 1.0 : 0.0);
       const bool fine = st.mode == robot::DriverMode::Idle || st.mode == robot::DriverMode::Following;
-      if (!fine)
-        heartbeat.setState(heartbeat_t::DEGRADED, std::string(robot::toString(st.mode)) + ": " + st.reason);
-      else if (!input_problem.empty() && robot::bcap::monotonicNs() - input_problem_ns < 2'000'000'000LL)
+      const bool problem = !input_problem.empty() && robot::bcap::monotonicNs() - input_problem_ns < 2'000'000'000LL;
+      if (!fine)  // with a plan just refused, say why it was (it may be why the arm stays put)
+        heartbeat.setState(heartbeat_t::DEGRADED, std::string(robot::toString(st.mode)) + ": " + st.reason +
+                                                      (problem ? "; " + input_problem : ""));
+      else if (problem)
         heartbeat.setState(heartbeat_t::DEGRADED, input_problem);
       else
         heartbeat.setState(heartbeat_t::RUNNING);

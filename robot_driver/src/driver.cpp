@@ -51,10 +51,12 @@ PlanResult Driver::submitPlan(const Plan& plan) {
   PlanResult res;
   Joints q_start;
   double hb_age;
+  std::string mismatch;
   {
     std::lock_guard<PiMutex> lock(mutex_);
     q_start = q_command_shared_;
     hb_age = heartbeat_ns_ == 0 ? 1e9 : static_cast<double>(monoNs() - heartbeat_ns_) * 1e-9;
+    mismatch = planner_mismatch_;
   }
   auto refuse = [&](PlanStatus s, const std::string& why) {
     res.accepted = false;
@@ -69,6 +71,7 @@ PlanResult Driver::submitPlan(const Plan& plan) {
   // A plan with waypoints must be fresh and its planner alive. An empty one is a controlled stop
   // (the planner's hold, sent before it has a frame to plan from): taken whatever its age.
   if (!plan.waypoints.empty()) {
+    if (!mismatch.empty()) return refuse(PlanStatus::Empty, mismatch);
     const SafetyVerdict fresh = checkNewPlan(cfg_.safety, wall_(), plan.utime, hb_age);
     if (fresh.stop == StopReason::PlanStale && plan.utime > 0)
       return refuse(PlanStatus::Empty,
@@ -95,9 +98,10 @@ PlanResult Driver::submitPlan(const Plan& plan) {
   return res;
 }
 
-void Driver::plannerHeartbeat() {
+void Driver::plannerHeartbeat(const std::string& mismatch) {
   std::lock_guard<PiMutex> lock(mutex_);
-  heartbeat_ns_ = monoNs();
+  planner_mismatch_ = mismatch;
+  if (mismatch.empty()) heartbeat_ns_ = monoNs();
 }
 
 void Driver::estop(bool stop, const std::string& why) {
@@ -271,11 +275,13 @@ bool Driver::slaveCycle() {
   std::optional<PreparedPlan> incoming;
   double hb_age;
   std::int64_t plan_utime;
+  std::string mismatch;
   bool have_plan;
   {
     std::lock_guard<PiMutex> lock(mutex_);
     incoming.swap(incoming_);
     hb_age = heartbeat_ns_ == 0 ? 1e9 : static_cast<double>(monoNs() - heartbeat_ns_) * 1e-9;
+    mismatch = planner_mismatch_;
     plan_utime = current_plan_.utime;
     have_plan = have_plan_;
   }
@@ -297,6 +303,7 @@ bool Driver::slaveCycle() {
   in.heartbeat_age_s = hb_age;
   in.nozzle = forwardNozzle(cfg_.arm, limiter_.last()).translation();
   in.was_inside = was_inside_;
+  in.planner_mismatch = mismatch;
   // Braking (with a margin for the discrete profile) plus the cycle that notices and the cycle
   // that sends the first unchanged command.
   in.stop_lead_s = 1.2 * generator_.brakingTime() + 2 * cfg_.trajectory.cycle_s;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 namespace depowder::robot {
@@ -58,6 +59,8 @@ const char* toString(StopReason r) {
       return "plan stale";
     case StopReason::ClockAhead:
       return "plan ahead of this host's clock";
+    case StopReason::PlannerMismatch:
+      return "planner plans for another arm";
     case StopReason::HeartbeatLost:
       return "planner heartbeat lost";
     case StopReason::Workspace:
@@ -106,6 +109,11 @@ SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in) {
   v = checkNewPlan(cfg, in.now_utime + static_cast<std::int64_t>(lead * 1e6), in.plan_utime,
                    in.heartbeat_age_s >= 1e9 ? in.heartbeat_age_s : in.heartbeat_age_s + lead);
   if (v.stop != StopReason::None) return v;
+  if (!in.planner_mismatch.empty()) {
+    v.stop = StopReason::PlannerMismatch;
+    v.reason = in.planner_mismatch;
+    return v;
+  }
   if (in.was_inside && !cfg.workspace.contains(in.nozzle, cfg.workspace_margin)) {
     char buf[160];
     std::snprintf(buf, sizeof buf, "commanded nozzle at (%.3f, %.3f, %.3f) m is outside the workspace box",
@@ -114,6 +122,28 @@ SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in) {
     v.reason = buf;
   }
   return v;
+}
+
+double armModelId(const ArmConfig& arm, const Workspace& workspace) {
+  // FNV-1a over the values in nanometres and nanoradians: a base pose's rotation computed by
+  // another host's libm may differ in its last bit, which this rounding does not see.
+  std::uint64_t h = 14695981039346656037ull;
+  auto add = [&h](double v) {
+    const std::int64_t n = std::llround(v * 1e9);
+    unsigned char bytes[sizeof n];
+    std::memcpy(bytes, &n, sizeof n);
+    for (unsigned char b : bytes) h = (h ^ b) * 1099511628211ull;
+  };
+  for (const Pose* T : {&arm.T_cell_base, &arm.T_flange_nozzle})
+    for (int k = 0; k < 16; ++k) add(T->matrix().data()[k]);
+  for (const Joints* q : {&arm.q_min, &arm.q_max, &arm.qd_max, &arm.qdd_max, &arm.q_home, &arm.ik_weights})
+    for (double v : *q) add(v);
+  add(arm.tool_radius);
+  for (int k = 0; k < 3; ++k) {
+    add(workspace.min[k]);
+    add(workspace.max[k]);
+  }
+  return static_cast<double>(h >> 12);
 }
 
 }  // namespace depowder::robot

@@ -59,14 +59,19 @@ class DriverProcess {
     while (!done() && std::chrono::steady_clock::now() < end) bus->spinOnce(2);
     return done();
   }
-  void plannerHeartbeat() {
+  /// A depowder-planner heartbeat; with `arm_model` (its robot::armModelId) as a stat if >= 0.
+  void plannerHeartbeat(double arm_model = -1) {
     heartbeat_t h{};
     h.utime = node::nowUtime();
     h.process = "depowder-planner";
     h.host = "test";
     h.pid = 1;
     h.state = heartbeat_t::RUNNING;
-    h.num_stats = 0;
+    if (arm_model >= 0) {
+      h.stat_names.push_back("arm_model");
+      h.stat_values.push_back(arm_model);
+    }
+    h.num_stats = static_cast<std::int32_t>(h.stat_names.size());
     bus->publish("HEARTBEAT", h);
   }
   nozzle_plan_t plan(std::int64_t id, const std::vector<Pose>& poses, double speed, std::int8_t tool = 1) {

@@ -76,6 +76,29 @@ TEST(DriverConfig, BasePoseReachesTheWholeBoxPointingDown) {
   EXPECT_GT(n, 10000);
 }
 
+// The planner and the driver each read their own host's cell file; armModelId is what the driver
+// compares. It follows the arm and workspace values, not the file's text or other settings.
+TEST(DriverConfig, ArmModelIdFollowsTheArmOnly) {
+  auto idOf = [](const std::string& robot_yaml) {
+    const RobotSection s = readRobotSection(node::loadCellFromString("robot:\n" + robot_yaml));
+    return armModelId(s.driver.arm, s.driver.safety.workspace);
+  };
+  const RobotSection def = readRobotSection(defaultCell());
+  const double id = armModelId(def.driver.arm, def.driver.safety.workspace);
+  EXPECT_EQ(id, std::floor(id));
+  EXPECT_GE(id, 0);
+  EXPECT_LT(id, 4503599627370496.0);  // 2^52: exact in a heartbeat stat
+  const double base = idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n");
+  EXPECT_EQ(base, idOf("  base_pose:\n    xyz: [-0.550, 0, 0.0]   # the same values\n    rpy_deg: [0, 0, 0]\n"));
+  EXPECT_EQ(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  controller: {host: 10.0.0.7}\n"));
+  EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.551, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n"));
+  EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0.1]}\n"));
+  EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  tool_offset: {xyz: [0, 0, 0.26], "
+                       "rpy_deg: [0, 0, 0]}\n"));
+  EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  workspace: {min: [-0.2, -0.15, "
+                       "0.0], max: [0.2, 0.15, 0.5]}\n"));
+}
+
 TEST(DriverConfig, RefusesBadValues) {
   expectError("  bogus: 1\n", "bogus");
   expectError("  plan_max_lead: 0\n", "plan_max_lead");

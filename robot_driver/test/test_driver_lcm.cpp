@@ -1,6 +1,6 @@
 // depowder-driver as a process over udpm (run inside test/netns-run): ROBOT_STATE rate, a plan
 // executed on the emulator, a malformed plan refused, ESTOP and its reset, the planner's
-// heartbeat lost, and an orderly shutdown on SIGTERM.
+// heartbeat lost, a planner of another arm refused, and an orderly shutdown on SIGTERM.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -52,13 +52,15 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
   EXPECT_GE(rate, 100.0);
 
   // 2. A plan with the planner alive: executed to its end on the emulated arm.
-  auto alive = [&] {
-    static auto last_hb = std::chrono::steady_clock::now() - std::chrono::seconds(1);
+  // The planner's heartbeat every 100 ms (with an arm_model figure if >= 0).
+  auto last_hb = std::chrono::steady_clock::now() - std::chrono::seconds(1);
+  auto beat = [&](double arm_model) {
     if (std::chrono::steady_clock::now() - last_hb > std::chrono::milliseconds(100)) {
-      p.plannerHeartbeat();
+      p.plannerHeartbeat(arm_model);
       last_hb = std::chrono::steady_clock::now();
     }
   };
+  auto alive = [&] { beat(-1); };
   p.spinUntil(
       [&] {
         alive();
@@ -167,7 +169,43 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
   EXPECT_EQ(p.emu->stats().speed_errors, 0);
   std::printf("late slvMove faults recovered from: %lld\n", static_cast<long long>(p.emu->stats().late_errors));
 
-  // 6. SIGTERM: orderly shutdown (slave mode left, arm given back, motor off), exit 0.
+  // 6. A planner that plans for another arm (its cell file's robot section differs): its plans
+  // are refused, saying so; the heartbeat of one without the figure counts again.
+  auto other_arm = [&] { beat(12345); };
+  p.spinUntil(
+      [&] {
+        other_arm();
+        return false;
+      },
+      0.3);
+  const auto q_hold = p.emu->joints().q;
+  p.bus->publish("NOZZLE_PLAN", p.plan(5, {down(0, 0, 0.25)}, 0.1));
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        other_arm();
+        return have_hb && hb.state_reason.find("plan 5 refused") != std::string::npos;
+      },
+      3))
+      << hb.state_reason;
+  EXPECT_NE(hb.state_reason.find("plans for another arm or workspace (arm_model 12345"), std::string::npos)
+      << hb.state_reason;
+  EXPECT_EQ(p.emu->joints().q, q_hold);
+  p.spinUntil(
+      [&] {
+        alive();
+        return false;
+      },
+      0.3);
+  p.bus->publish("NOZZLE_PLAN", p.plan(6, {down(0, 0, 0.25)}, 0.1));
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        alive();
+        return last.plan_id == 6 && last.mode == robot_state_t::MODE_IDLE;
+      },
+      10))
+      << last.mode_reason;
+
+  // 7. SIGTERM: orderly shutdown (slave mode left, arm given back, motor off), exit 0.
   EXPECT_EQ(p.terminate(), 0);
   EXPECT_FALSE(p.emu->joints().motor_on);
   EXPECT_FALSE(p.emu->joints().slave_mode);

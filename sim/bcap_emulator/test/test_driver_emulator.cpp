@@ -259,6 +259,32 @@ TEST(DriverEmulator, RefusesAPlanFromAheadOfItsClock) {
   ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({0.0, 0.0, 0.25}); }, 8.0));
 }
 
+// A planner that plans for another arm (its host's cell file differs: armModelId) is no planner
+// for this driver: its plans are refused, and a running plan is brought to a controlled stop at
+// once, both saying why. Its own planner's heartbeat puts things right.
+TEST(DriverEmulator, APlannerOfAnotherArmIsRefused) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.15, 0.1, 0.1}}, 0.05)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  rig.heartbeats_ = false;
+  std::this_thread::sleep_for(60ms);  // the heartbeat thread's last one has come
+  const std::string why = "depowder-planner on compute plans for another arm or workspace";
+  rig.driver().plannerHeartbeat(why);
+  // At once: the heartbeat timeout (0.5 s) would stop it 0.39 s from here at the earliest.
+  ASSERT_TRUE(rig.waitMode(DriverMode::Holding, 0.2)) << rig.driver().status().reason;
+  EXPECT_NE(rig.driver().status().reason.find(why), std::string::npos) << rig.driver().status().reason;
+  EXPECT_FALSE(rig.atNozzle({0.15, 0.1, 0.1}, 0.05));
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+  const PlanResult r = rig.driver().submitPlan(linePlan(2, {{0.0, 0.0, 0.25}}, 0.2));
+  EXPECT_FALSE(r.accepted);
+  EXPECT_EQ(r.reason, why);
+  rig.driver().plannerHeartbeat();  // its own planner again
+  rig.heartbeats_ = true;
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(3, {{0.0, 0.0, 0.25}}, 0.2)).accepted);
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({0.0, 0.0, 0.25}); }, 8.0));
+}
+
 // The planner's hold (no waypoints; before its first frame it has no source time) is a
 // controlled stop: taken whatever its age, where a plan with waypoints would be refused.
 TEST(DriverEmulator, AnEmptyPlanStopsWhateverItsAge) {

@@ -86,8 +86,10 @@ class Driver {
   /// Validates and prepares a plan (IK, workspace, speeds, age); the loop takes it over at its
   /// next cycle. A refused plan changes nothing.
   PlanResult submitPlan(const Plan& plan);
-  /// A heartbeat of the planner process arrived now.
-  void plannerHeartbeat();
+  /// A heartbeat of the planner process arrived now. `mismatch` non-empty (why): that planner plans
+  /// for another arm or workspace than this driver's (armModelId); its heartbeat counts as none,
+  /// plans are refused and a running one brought to a controlled stop, saying why.
+  void plannerHeartbeat(const std::string& mismatch = "");
   /// stop = true: Robot_Halt at once (on the watch connection, from the caller's thread), then
   /// motor off; latched. stop = false: reset; the arm is re-enabled where it is, without a plan.
   void estop(bool stop, const std::string& why);
@@ -125,6 +127,7 @@ class Driver {
   Plan current_plan_;  ///< raw, for resuming after a reconnect
   bool have_plan_ = false;
   std::int64_t heartbeat_ns_ = 0;  ///< CLOCK_MONOTONIC of the last planner heartbeat, 0 never
+  std::string planner_mismatch_;   ///< why the last planner heartbeat did not count ("" it did)
   std::atomic<bool> estop_latched_{false};
   std::atomic<std::int64_t> estop_events_{0};  ///< estop(true) calls; the loop handles each one
   std::atomic<std::int64_t> estop_ns_{0};

@@ -9,8 +9,8 @@
 #include <mutex>
 #include <string>
 
-#include "depowder/robot/bcap/client.hpp"
 #include "depowder/pi_mutex.hpp"
+#include "depowder/robot/bcap/client.hpp"
 #include "depowder/robot/kinematics.hpp"
 #include "depowder/robot/trajectory.hpp"
 

@@ -57,10 +57,11 @@ class CommandLimiter {
 
 enum class StopReason {
   None,
-  PlanStale,      ///< the executing plan is older than plan_max_age_s
-  ClockAhead,     ///< the plan's utime is ahead of this host's clock by more than plan_max_lead_s
-  HeartbeatLost,  ///< no planner heartbeat for planner_heartbeat_timeout_s
-  Workspace,      ///< the commanded nozzle left the workspace box
+  PlanStale,        ///< the executing plan is older than plan_max_age_s
+  ClockAhead,       ///< the plan's utime is ahead of this host's clock by more than plan_max_lead_s
+  PlannerMismatch,  ///< the planner plans for another arm or workspace (armModelId)
+  HeartbeatLost,    ///< no planner heartbeat for planner_heartbeat_timeout_s
+  Workspace,        ///< the commanded nozzle left the workspace box
 };
 
 const char* toString(StopReason r);
@@ -71,9 +72,10 @@ struct SafetyInputs {
   std::int64_t plan_utime = 0;                       ///< utime of the executing plan
   double heartbeat_age_s = 1e9;                      ///< s since the last planner heartbeat (1e9: never)
   Eigen::Vector3d nozzle = Eigen::Vector3d::Zero();  ///< commanded nozzle position, cell frame
-  double stop_lead_s = 0;  ///< s, braking time + one cycle: stop this early so the arm is at rest by the limit
-  bool was_inside = true;  ///< the previous command was inside (leaving is what stops; an arm that
-                           ///< starts outside may move back in)
+  double stop_lead_s = 0;        ///< s, braking time + one cycle: stop this early so the arm is at rest by the limit
+  bool was_inside = true;        ///< the previous command was inside (leaving is what stops; an arm that
+                                 ///< starts outside may move back in)
+  std::string planner_mismatch;  ///< why the planner's last heartbeat did not count ("": it did)
 };
 
 struct SafetyVerdict {
@@ -89,5 +91,12 @@ SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in);
 /// planner alive).
 SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std::int64_t plan_utime,
                            double heartbeat_age_s);
+
+/// The arm the planner plans for and the driver moves must be the same: an identifier of its
+/// model (base pose, tool offset, joint limits, speeds, home, IK weights, tool radius) and of the
+/// workspace box, from their values (not the file's text). A whole number below 2^52, exact in a
+/// heartbeat stat (`arm_model`). On several hosts each reads its own cell file: the driver
+/// compares the planner's with its own (driver.hpp, plannerHeartbeat).
+double armModelId(const ArmConfig& arm, const Workspace& workspace);
 
 }  // namespace depowder::robot
