@@ -1,6 +1,7 @@
 #!/bin/sh
 # LCM with ?ttl=1 crosses test hosts joined by a bridge, and stops when a host's link is cut;
-# depowder-status tells a host whose clock runs ahead (faketime: its wall clock 3 s ahead).
+# depowder-status tells a host whose clock runs ahead (faketime: its wall clock 3 s ahead), and
+# hosts whose cell files differ (a part's initial pose 1 mm apart).
 set -eu
 BIN=$1
 H=$(dirname "$0")/netns-hosts
@@ -29,6 +30,29 @@ if awk -v a="$same" -v b="$ahead" 'BEGIN { exit !(a != "" && b != "" && a > -50 
   pass=$((pass+1)); echo "ok: clock differences"
 else
   fail=$((fail+1)); echo "FAILED: clock differences"
+fi
+# The cell files: depowder-progress on hosts 1 and 2, with the same cell file and then with one
+# whose part starts 1 mm higher; depowder-status on host 3.
+SRC=$(cd "$(dirname "$0")/.." && pwd)
+sed "s|mesh: parts/|mesh: $SRC/config/parts/|" "$SRC/config/cell.yaml" > same.yaml
+sed 's/xyz: \[0.0, 0.0, 0.06\]/xyz: [0.0, 0.0, 0.061]/' same.yaml > other.yaml
+cmp -s same.yaml other.yaml && { echo "FAILED: other.yaml is not another cell"; exit 1; }
+cells_differ() {  # prints what depowder-status says of the cell files of hosts 1 and 2
+  "$H" exec $T 1 "$BIN/depowder-progress" --cell same.yaml > progress1.log 2>&1 & a=$!
+  "$H" exec $T 2 "$BIN/depowder-progress" --cell "$1" > progress2.log 2>&1 & b=$!
+  sleep 1
+  "$H" exec $T 3 "$BIN/depowder-status" --once --timeout 2 > cells.out
+  kill $a $b; wait $a $b 2> /dev/null || true
+  grep -c "^depowder-progress@" cells.out | grep -q '^2$' || echo "not both heard"
+  grep "cell files differ" cells.out || true
+}
+same=$(cells_differ same.yaml)
+other=$(cells_differ other.yaml)
+echo "same cell files: '${same}'; one part 1 mm apart: '${other}'"
+if [ -z "$same" ] && echo "$other" | grep -q "^cell files differ" && ! echo "$other" | grep -q "not both"; then
+  pass=$((pass+1)); echo "ok: cell files told apart"
+else
+  fail=$((fail+1)); echo "FAILED: cell files told apart"
 fi
 "$H" cut $T 3
 "$H" exec $T 1 "$BIN/depowder-status" --wait-for depowder-estop --timeout 2 & p=$!

@@ -36,7 +36,8 @@ int usage(const char* error = nullptr) {
   std::cerr << "usage: depowder-status [--wait-for PROCESS] [--timeout S] [--once] [--url URL] [--prefix P]\n"
                "  Prints one line per process heard on HEARTBEAT, refreshed every second: age of its last\n"
                "  heartbeat, counters, CPU, memory, and clock_ms, its host's clock less this host's (a\n"
-               "  difference beyond 100 ms is flagged: plan ages in the driver need agreeing clocks).\n"
+               "  difference beyond 100 ms is flagged: plan ages in the driver need agreeing clocks). Says\n"
+               "  so when the processes' cell files differ in the sections they share (box, cameras, parts).\n"
                "  --wait-for P  exit 0 as soon as a heartbeat from process P arrives (1 on timeout)\n"
                "  --once        print the table once after --timeout seconds (default 2) and exit\n";
   return error ? 2 : 0;
@@ -92,6 +93,19 @@ int main(int argc, char** argv) {
                     h.state_reason.c_str());
         if (std::abs(heard.clockMs()) > kClockWarnMs && apart.find(h.host) == std::string::npos)
           apart += (apart.empty() ? "" : ", ") + h.host;
+      }
+      // The shared sections of each process's cell file (node::cellModelId): one value expected.
+      std::map<double, std::string> models;  // cell_model -> the processes that read it
+      for (const auto& [key, heard] : last)
+        for (std::size_t i = 0; i < heard.h.stat_names.size() && i < heard.h.stat_values.size(); ++i)
+          if (heard.h.stat_names[i] == "cell_model") {
+            std::string& who = models[heard.h.stat_values[i]];
+            who += (who.empty() ? "" : ", ") + key;
+          }
+      if (models.size() > 1) {
+        std::printf("cell files differ (box, cameras or parts; cell_model):");
+        for (const auto& [model, who] : models) std::printf(" %.0f in %s;", model, who.c_str());
+        std::printf(" every host needs the same\n");
       }
       if (!apart.empty())
         std::printf(

@@ -1,4 +1,8 @@
 #include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <filesystem>
+#include <fstream>
 
 #include "depowder/node/cell.hpp"
 
@@ -74,4 +78,34 @@ TEST(Config, ModuleSectionsAreLeftToTheirModulesAndChecked) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown key 'typo' in 'tracker'"), std::string::npos) << e.what();
   }
+}
+
+// cell_model (in every process's heartbeat) tells cell files apart by what the processes share:
+// box, cameras, parts and each part's mesh by its bytes; not by comments, the file's path or
+// a mesh's path, nor by a module's own section.
+TEST(Config, CellModelIdFollowsTheSharedSections) {
+  char dir_template[] = "/tmp/depowder-cell-XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::filesystem::path dir = dir_template;
+  const std::filesystem::path source = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/cube.stl";
+  std::filesystem::create_directories(dir / "a");
+  std::filesystem::copy_file(source, dir / "cube.stl");
+  std::filesystem::copy_file(source, dir / "a" / "other.stl");
+  auto idOf = [&](const std::string& mesh, const std::string& xyz, const std::string& more = "") {
+    std::ofstream(dir / "cell.yaml") << "box: {size: [0.4, 0.3, 0.2]}   # a comment\n"
+                                     << "parts:\n  - name: cube\n    mesh: " << mesh
+                                     << "\n    initial_pose: {xyz: " << xyz << ", rpy_deg: [0, 0, 30]}\n"
+                                     << more;
+    return cellModelId(loadCell((dir / "cell.yaml").string()));
+  };
+  const double id = idOf("cube.stl", "[0, 0, 0.05]");
+  EXPECT_EQ(id, std::floor(id));
+  EXPECT_LT(id, 4503599627370496.0);                      // 2^52: exact in a heartbeat stat
+  EXPECT_EQ(id, idOf("a/other.stl", "[0.0, 0, 0.050]"));  // the same bytes, the same values
+  EXPECT_EQ(id, idOf("cube.stl", "[0, 0, 0.05]", "tracker: {delta2: 0.04}\n"));
+  EXPECT_NE(id, idOf("cube.stl", "[0, 0, 0.051]"));
+  std::ofstream(dir / "a" / "other.stl", std::ios::app) << ' ';  // a mesh edited on one host
+  EXPECT_NE(id, idOf("a/other.stl", "[0, 0, 0.05]"));
+  EXPECT_NE(id, idOf("missing.stl", "[0, 0, 0.05]"));
+  std::filesystem::remove_all(dir);
 }

@@ -83,6 +83,7 @@ class CameraNode {
 
   int run() {
     heartbeat_.setState(heartbeat_t::RUNNING);
+    heartbeat_.setStat("cell_model", node::cellModelId(options_.cell));  // depowder-status compares hosts
     const int rc = options_.files.dir.empty() ? runLive() : runFiles();
     const std::string reason = updateHealth();
     heartbeat_.setState(heartbeat_t::STOPPING, reason.empty() ? "shutting down" : "shutting down; " + reason);

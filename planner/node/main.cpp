@@ -42,8 +42,9 @@ int main(int argc, char** argv) {
     node::installShutdownHandlers();
     node::Bus bus(args->url.value_or(cell.lcm.url), args->prefix.value_or(cell.lcm.prefix));
     node::Heartbeat heartbeat(bus, "depowder-planner", options.heartbeat_period);
-    heartbeat.setStat("arm_model", options.arm_model);  // the driver moves only an arm it shares
-    std::string last_rejection;                         // printed once per distinct reason, counted always
+    heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
+    heartbeat.setStat("arm_model", options.arm_model);         // the driver moves only an arm it shares
+    std::string last_rejection;                                // printed once per distinct reason, counted always
     auto rejected = [&](const planner::InputResult& r) {
       if (r.ok()) return;
       heartbeat.addDropped();

@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
     node::installShutdownHandlers();
     node::Bus bus(args->url.value_or(cell.lcm.url), args->prefix.value_or(cell.lcm.prefix));
     node::Heartbeat heartbeat(bus, "depowder-progress", options.heartbeat_period);
+    heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
     std::vector<progress_t> out;
     auto append = [&out](std::vector<progress_t> more) {
       for (auto& m : more) out.push_back(std::move(m));

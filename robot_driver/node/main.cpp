@@ -125,8 +125,9 @@ int main(int argc, char** argv) {
     node::installShutdownHandlers();
     node::Bus bus(have_url ? url : cell.lcm.url, have_prefix ? prefix : cell.lcm.prefix);
     node::Heartbeat heartbeat(bus, "depowder-driver", opt.heartbeat_period_s);
-    std::string input_problem;          // shown in the heartbeat for a while
-    std::int64_t input_problem_ns = 0;  // CLOCK_MONOTONIC when it happened
+    heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
+    std::string input_problem;                                 // shown in the heartbeat for a while
+    std::int64_t input_problem_ns = 0;                         // CLOCK_MONOTONIC when it happened
     bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& msg, const std::string&) {
       robot::Plan plan;
       std::string why;

@@ -3,8 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <string>
+
+#include "depowder/digest.hpp"
 
 namespace depowder::robot {
 
@@ -125,25 +126,14 @@ SafetyVerdict checkSafety(const SafetyConfig& cfg, const SafetyInputs& in) {
 }
 
 double armModelId(const ArmConfig& arm, const Workspace& workspace) {
-  // FNV-1a over the values in nanometres and nanoradians: a base pose's rotation computed by
-  // another host's libm may differ in its last bit, which this rounding does not see.
-  std::uint64_t h = 14695981039346656037ull;
-  auto add = [&h](double v) {
-    const std::int64_t n = std::llround(v * 1e9);
-    unsigned char bytes[sizeof n];
-    std::memcpy(bytes, &n, sizeof n);
-    for (unsigned char b : bytes) h = (h ^ b) * 1099511628211ull;
-  };
+  Digest d;
   for (const Pose* T : {&arm.T_cell_base, &arm.T_flange_nozzle})
-    for (int k = 0; k < 16; ++k) add(T->matrix().data()[k]);
+    for (int k = 0; k < 16; ++k) d.add(T->matrix().data()[k]);
   for (const Joints* q : {&arm.q_min, &arm.q_max, &arm.qd_max, &arm.qdd_max, &arm.q_home, &arm.ik_weights})
-    for (double v : *q) add(v);
-  add(arm.tool_radius);
-  for (int k = 0; k < 3; ++k) {
-    add(workspace.min[k]);
-    add(workspace.max[k]);
-  }
-  return static_cast<double>(h >> 12);
+    for (double v : *q) d.add(v);
+  d.add(arm.tool_radius);
+  for (int k = 0; k < 3; ++k) d.add(workspace.min[k]).add(workspace.max[k]);
+  return d.value();
 }
 
 }  // namespace depowder::robot

@@ -158,6 +158,8 @@ int main(int argc, char** argv) {
     node::installShutdownHandlers();
     node::Bus bus(have_url ? url : setup.lcm.url, have_prefix ? prefix : setup.lcm.prefix);
     node::Heartbeat heartbeat(bus, "depowder-sim");
+    heartbeat.setStat("cell_model",
+                      node::cellModelId(node::loadCell(setup.cell_file)));  // depowder-status compares hosts
     heartbeat.setState(heartbeat_t::RUNNING);
     heartbeat.publish();
     std::cout << "depowder-sim: " << world->partCount() << " parts, " << world->cameras().size() << " cameras, "

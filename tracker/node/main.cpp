@@ -83,6 +83,7 @@ int main(int argc, char** argv) {
     node::installShutdownHandlers();
     node::Bus bus(have_url ? url : cell.lcm.url, have_prefix ? prefix : cell.lcm.prefix);
     node::Heartbeat heartbeat(bus, "depowder-tracker", options.heartbeat_period);
+    heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
     std::optional<point_cloud_t> pending;
     std::int64_t skipped = 0;
     bus.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& msg, const std::string&) {

@@ -179,6 +179,7 @@ int main(int argc, char** argv) {
     viewer::subscribe(bus, model);
     const bool replay = bus_url.rfind("file://", 0) == 0;  // reading a log: nothing to publish to
     node::Heartbeat heartbeat(bus, "depowder-viewer");
+    heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
     heartbeat.setState(heartbeat_t::RUNNING);
     ErrorReporter errors;
 

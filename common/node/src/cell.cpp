@@ -2,7 +2,11 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <set>
+
+#include "depowder/digest.hpp"
 
 namespace depowder::node {
 
@@ -93,6 +97,30 @@ CellConfig loadCellFromString(const std::string& text, const std::string& file) 
 std::string defaultCellPath() {
   if (const char* env = std::getenv("DEPOWDER_CELL")) return env;
   return DEPOWDER_DEFAULT_CELL;
+}
+
+double cellModelId(const CellConfig& cell) {
+  Digest d;
+  auto pose = [&d](const Pose& T) {
+    for (int k = 0; k < 16; ++k) d.add(T.matrix().data()[k]);
+  };
+  for (int k = 0; k < 3; ++k) d.add(cell.box.size[k]);
+  d.add(cell.box.wall);
+  for (const CameraConfig& c : cell.cameras) {
+    d.add(c.name).add(c.width).add(c.height).add(c.fov_h_deg).add(c.fov_v_deg).add(c.rate_hz);
+    d.add(c.min_range).add(c.max_range);
+    pose(c.T_cell_camera);
+  }
+  for (const PartConfig& p : cell.parts) {
+    d.add(p.name).add(p.mesh_scale).add(p.xi).add(p.density);
+    pose(p.T_cell_part_init);
+    std::ifstream in(p.mesh, std::ios::binary);  // the mesh by its bytes: its path may differ by host
+    if (in)
+      d.add(std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
+    else
+      d.add("unreadable " + p.mesh);
+  }
+  return d.value();
 }
 
 }  // namespace depowder::node

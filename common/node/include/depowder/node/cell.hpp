@@ -73,6 +73,11 @@ extern const std::vector<std::string> kModuleSections;
 CellConfig loadCell(const std::string& path);
 CellConfig loadCellFromString(const std::string& text, const std::string& file = "<string>");
 
+/// A digest of the sections the processes share (box, cameras, parts: their values, and each
+/// part's mesh file by its bytes), below 2^52: every process puts it in its heartbeat
+/// (`cell_model`), so that on several hosts depowder-status can tell cell files that differ.
+double cellModelId(const CellConfig& cell);
+
 using depowder::lookAt;  ///< camera pose at a position looking at a target (geometry.hpp)
 
 /// Default config file: $DEPOWDER_CELL, else config/cell.yaml of the source tree.
