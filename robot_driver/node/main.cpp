@@ -6,6 +6,7 @@
 #include <sched.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
@@ -150,22 +151,17 @@ int main(int argc, char** argv) {
       std::cerr << "depowder-driver: ESTOP " << (msg.stop ? "STOP" : "reset") << " from " << msg.source << ": "
                 << msg.reason << std::endl;
     });
-    // The planner's heartbeat says which arm and workspace it plans for (armModelId, from its own
-    // cell file on its own host): another than this driver's does not count, and says why.
-    const double arm_model = robot::armModelId(section.driver.arm, section.driver.safety.workspace);
+    // The planner's heartbeats: one planner, of this driver's arm and workspace (PlannerWatch).
+    robot::PlannerWatch planners(robot::armModelId(section.driver.arm, section.driver.safety.workspace),
+                                 section.driver.safety.planner_heartbeat_timeout_s);
     bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& msg, const std::string&) {
       if (msg.process != opt.planner_process) return;
-      std::string mismatch;
-      for (int i = 0; i < msg.num_stats && i < static_cast<int>(msg.stat_values.size()); ++i)
-        if (msg.stat_names[i] == "arm_model" && msg.stat_values[i] != arm_model) {
-          char buf[320];
-          std::snprintf(buf, sizeof buf,
-                        "%s on %s plans for another arm or workspace (arm_model %.0f, this driver's %.0f): the robot "
-                        "sections of the hosts' cell files differ (base pose, tool, joint limits, workspace)",
-                        msg.process.c_str(), msg.host.c_str(), msg.stat_values[i], arm_model);
-          mismatch = buf;
-        }
-      driver.plannerHeartbeat(mismatch);
+      double arm_model = std::nan("");
+      for (std::size_t i = 0; i < msg.stat_names.size() && i < msg.stat_values.size(); ++i)
+        if (msg.stat_names[i] == "arm_model") arm_model = msg.stat_values[i];
+      const std::string who = msg.host + ":" + std::to_string(msg.pid);
+      driver.plannerHeartbeat(
+          planners.heard(who, arm_model, msg.state == heartbeat_t::STOPPING, robot::bcap::monotonicNs() * 1e-9));
     });
     heartbeat.setState(heartbeat_t::STARTING, "connecting to the controller");
     heartbeat.publish();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <string>
 
 #include "depowder/digest.hpp"
@@ -134,6 +135,31 @@ double armModelId(const ArmConfig& arm, const Workspace& workspace) {
   d.add(arm.tool_radius);
   for (int k = 0; k < 3; ++k) d.add(workspace.min[k]).add(workspace.max[k]);
   return d.value();
+}
+
+std::string PlannerWatch::heard(const std::string& who, double arm_model, bool stopping, double now_s) {
+  for (auto it = last_s_.begin(); it != last_s_.end();)
+    it = now_s - it->second > window_s_ ? last_s_.erase(it) : std::next(it);
+  if (stopping) {
+    last_s_.erase(who);
+    return "the planner " + who + " is stopping";
+  }
+  last_s_[who] = now_s;
+  if (last_s_.size() > 1) {
+    std::string all;
+    for (const auto& [name, t] : last_s_) all += (all.empty() ? "" : ", ") + name;
+    return std::to_string(last_s_.size()) + " planners publish plans (" + all +
+           "): which to follow is not clear; stop all but one (or give them their own lcm.prefix)";
+  }
+  if (std::isfinite(arm_model) && arm_model != arm_model_) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "the planner %s plans for another arm or workspace (arm_model %.0f, this driver's %.0f): the robot "
+                  "sections of the hosts' cell files differ (base pose, tool, joint limits, workspace)",
+                  who.c_str(), arm_model, arm_model_);
+    return buf;
+  }
+  return "";
 }
 
 }  // namespace depowder::robot

@@ -59,14 +59,15 @@ class DriverProcess {
     while (!done() && std::chrono::steady_clock::now() < end) bus->spinOnce(2);
     return done();
   }
-  /// A depowder-planner heartbeat; with `arm_model` (its robot::armModelId) as a stat if >= 0.
-  void plannerHeartbeat(double arm_model = -1) {
+  /// A depowder-planner heartbeat from process `pid` on host "test"; with `arm_model` (its
+  /// robot::armModelId) as a stat if >= 0.
+  void plannerHeartbeat(double arm_model = -1, int pid = 1, std::int8_t state = heartbeat_t::RUNNING) {
     heartbeat_t h{};
     h.utime = node::nowUtime();
     h.process = "depowder-planner";
     h.host = "test";
-    h.pid = 1;
-    h.state = heartbeat_t::RUNNING;
+    h.pid = pid;
+    h.state = state;
     if (arm_model >= 0) {
       h.stat_names.push_back("arm_model");
       h.stat_values.push_back(arm_model);

@@ -1,6 +1,7 @@
 // depowder-driver as a process over udpm (run inside test/netns-run): ROBOT_STATE rate, a plan
 // executed on the emulator, a malformed plan refused, ESTOP and its reset, the planner's
-// heartbeat lost, a planner of another arm refused, and an orderly shutdown on SIGTERM.
+// heartbeat lost, a planner of another arm and two planners at once refused, and an orderly
+// shutdown on SIGTERM.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -187,7 +188,8 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
       },
       3))
       << hb.state_reason;
-  EXPECT_NE(hb.state_reason.find("plans for another arm or workspace (arm_model 12345"), std::string::npos)
+  EXPECT_NE(hb.state_reason.find("the planner test:1 plans for another arm or workspace (arm_model 12345"),
+            std::string::npos)
       << hb.state_reason;
   EXPECT_EQ(p.emu->joints().q, q_hold);
   p.spinUntil(
@@ -205,7 +207,46 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
       10))
       << last.mode_reason;
 
-  // 7. SIGTERM: orderly shutdown (slave mode left, arm given back, motor off), exit 0.
+  // 7. A second planner on the bus (another cell, a laptop): no plan is followed while both
+  // publish; once it says it stops, the first one's plans are.
+  auto two = [&] {
+    const bool due = std::chrono::steady_clock::now() - last_hb > std::chrono::milliseconds(100);
+    beat(-1);
+    if (due) p.plannerHeartbeat(-1, 2);
+  };
+  p.spinUntil(
+      [&] {
+        two();
+        return false;
+      },
+      0.3);
+  p.bus->publish("NOZZLE_PLAN", p.plan(7, {down(0.05, 0, 0.25)}, 0.1));
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        two();
+        return have_hb && hb.state_reason.find("plan 7 refused") != std::string::npos;
+      },
+      3))
+      << hb.state_reason;
+  EXPECT_NE(hb.state_reason.find("2 planners publish plans (test:1, test:2)"), std::string::npos) << hb.state_reason;
+  EXPECT_NE(last.plan_id, 7);
+  p.plannerHeartbeat(-1, 2, heartbeat_t::STOPPING);
+  p.spinUntil(
+      [&] {
+        alive();
+        return false;
+      },
+      0.3);
+  p.bus->publish("NOZZLE_PLAN", p.plan(8, {down(0.05, 0, 0.25)}, 0.1));
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        alive();
+        return last.plan_id == 8 && last.mode == robot_state_t::MODE_IDLE;
+      },
+      10))
+      << last.mode_reason;
+
+  // 8. SIGTERM: orderly shutdown (slave mode left, arm given back, motor off), exit 0.
   EXPECT_EQ(p.terminate(), 0);
   EXPECT_FALSE(p.emu->joints().motor_on);
   EXPECT_FALSE(p.emu->joints().slave_mode);

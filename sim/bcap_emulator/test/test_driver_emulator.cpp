@@ -213,11 +213,19 @@ TEST(DriverEmulator, StalePlanBringsAControlledStop) {
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
   EXPECT_LE(rig.maxStepRatio(), 1.0);
   // A fresh plan moves on from there.
-  EXPECT_FALSE(rig.driver().submitPlan(linePlan(2, {{0.0, 0.0, 0.25}}, 0.2)).accepted);  // 1 s old for the driver
+  Plan old = linePlan(2, {{0.0, 0.0, 0.25}}, 0.2);
+  old.utime -= 1000;  // 1.001 s old for the driver (made within the microsecond it is checked, 1 s is the limit)
+  EXPECT_FALSE(rig.driver().submitPlan(old).accepted);
   Plan fresh = linePlan(3, {{0.0, 0.0, 0.25}}, 0.2);
   fresh.utime += rig.wall_offset_us_;
   ASSERT_TRUE(rig.driver().submitPlan(fresh).accepted);
-  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle({0.0, 0.0, 0.25}); }, 8.0));
+  ASSERT_TRUE(rig.waitFor(
+      [&] {
+        return rig.atNozzle({0.0, 0.0, 0.25});
+      },
+      8.0))
+      << toString(rig.driver().status().mode) << ": " << rig.driver().status().reason << " | "
+      << rig.driver().status().last_plan_result << " | " << rig.driver().status().plan_id;
   EXPECT_TRUE(rig.waitMode(DriverMode::Idle, 1.0));
 }
 

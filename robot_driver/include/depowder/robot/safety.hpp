@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 
 #include "depowder/robot/kinematics.hpp"
@@ -98,5 +99,28 @@ SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std:
 /// heartbeat stat (`arm_model`). On several hosts each reads its own cell file: the driver
 /// compares the planner's with its own (driver.hpp, plannerHeartbeat).
 double armModelId(const ArmConfig& arm, const Workspace& workspace);
+
+/// Whether the planner heartbeats the driver hears come from the one planner it may follow: a
+/// single process of that name on the bus, planning for this driver's arm and workspace. Two at
+/// once (a second cell, or an engineer's laptop, on the same LAN and prefix) would each send
+/// plans the arm takes over in turn; one of another arm plans collisions for a base pose or tool
+/// the arm does not have. Pure: times are passed in.
+class PlannerWatch {
+ public:
+  /// `arm_model`: this driver's armModelId; `window_s`: how long a planner counts as present after
+  /// its last heartbeat (the planner heartbeat timeout).
+  PlannerWatch(double arm_model, double window_s) : arm_model_(arm_model), window_s_(window_s) {}
+
+  /// A heartbeat of a planner process (`who`: its host and pid) at `now_s` (a monotonic clock),
+  /// with its arm_model figure (NaN: the heartbeat has none, which is not checked) and whether it
+  /// is stopping (its last). Returns "" if it counts as the heartbeat of the planner to follow,
+  /// otherwise why not (for Driver::plannerHeartbeat).
+  std::string heard(const std::string& who, double arm_model, bool stopping, double now_s);
+
+ private:
+  double arm_model_;
+  double window_s_;
+  std::map<std::string, double> last_s_;  ///< each planner heard within the window: its last heartbeat
+};
 
 }  // namespace depowder::robot
