@@ -1,7 +1,7 @@
 #!/bin/sh
 # LCM with ?ttl=1 crosses test hosts joined by a bridge, and stops when a host's link is cut;
 # depowder-status tells a host whose clock runs ahead (faketime: its wall clock 3 s ahead), and
-# hosts whose cell files differ (a part's initial pose 1 mm apart).
+# hosts whose cell files differ (a part's initial pose 1 mm apart) and two of one cell process.
 set -eu
 BIN=$1
 H=$(dirname "$0")/netns-hosts
@@ -49,6 +49,12 @@ cells_differ() {  # prints what depowder-status says of the cell files of hosts 
   grep "cell files differ" cells.out || true
 }
 same=$(cells_differ same.yaml)
+# Two progress estimators on one bus: one cell runs one of each process.
+if grep -q "^more than one depowder-progress: depowder-progress@" cells.out; then
+  pass=$((pass+1)); echo "ok: two of one process told"
+else
+  fail=$((fail+1)); echo "FAILED: two of one process told"; cat cells.out
+fi
 other=$(cells_differ other.yaml)
 echo "same cell files: '${same}'; one part 1 mm apart: '${other}'"
 if [ -z "$same" ] && echo "$other" | grep -q "^cell files differ" && ! echo "$other" | grep -q "not both"; then

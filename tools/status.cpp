@@ -26,6 +26,12 @@ struct Heard {
 // from its camera frame's utime (robot.plan_max_age, plan_max_lead).
 constexpr double kClockWarnMs = 100;
 
+// A process heard within this many seconds is running (heartbeats come at 2 Hz or more).
+constexpr double kLiveS = 3;
+// The processes a cell runs one of each.
+const char* const kOnePerCell[] = {"depowder-sim",      "depowder-camera",  "depowder-tracker",
+                                   "depowder-progress", "depowder-planner", "depowder-driver"};
+
 const char* stateName(int s) {
   static const char* names[] = {"starting", "running", "degraded", "stopping", "failed"};
   return s >= 0 && s <= 4 ? names[s] : "?";
@@ -37,7 +43,8 @@ int usage(const char* error = nullptr) {
                "  Prints one line per process heard on HEARTBEAT, refreshed every second: age of its last\n"
                "  heartbeat, counters, CPU, memory, and clock_ms, its host's clock less this host's (a\n"
                "  difference beyond 100 ms is flagged: plan ages in the driver need agreeing clocks). Says\n"
-               "  so when the processes' cell files differ in the sections they share (box, cameras, parts).\n"
+               "  so when the processes' cell files differ in the sections they share (box, cameras, parts),\n"
+               "  and when two of one cell process run (a second cell on the same LAN and prefix).\n"
                "  --wait-for P  exit 0 as soon as a heartbeat from process P arrives (1 on timeout)\n"
                "  --once        print the table once after --timeout seconds (default 2) and exit\n";
   return error ? 2 : 0;
@@ -94,14 +101,24 @@ int main(int argc, char** argv) {
         if (std::abs(heard.clockMs()) > kClockWarnMs && apart.find(h.host) == std::string::npos)
           apart += (apart.empty() ? "" : ", ") + h.host;
       }
-      // The shared sections of each process's cell file (node::cellModelId): one value expected.
-      std::map<double, std::string> models;  // cell_model -> the processes that read it
-      for (const auto& [key, heard] : last)
+      // Of the processes running now (heard within kLiveS, not stopping): the shared sections of
+      // their cell files (node::cellModelId), one value expected; one of each cell process.
+      std::map<double, std::string> models;      // cell_model -> the processes that read it
+      std::map<std::string, std::string> kinds;  // cell process -> each one running
+      for (const auto& [key, heard] : last) {
+        if ((now - heard.arrived_utime) * 1e-6 > kLiveS || heard.h.state == depowder::heartbeat_t::STOPPING) continue;
         for (std::size_t i = 0; i < heard.h.stat_names.size() && i < heard.h.stat_values.size(); ++i)
           if (heard.h.stat_names[i] == "cell_model") {
             std::string& who = models[heard.h.stat_values[i]];
             who += (who.empty() ? "" : ", ") + key;
           }
+        for (const char* kind : kOnePerCell)
+          if (heard.h.process == kind) kinds[kind] += (kinds[kind].empty() ? "" : ", ") + key;
+      }
+      for (const auto& [kind, who] : kinds)
+        if (who.find(", ") != std::string::npos)
+          std::printf("more than one %s: %s; one cell runs one (another cell on this LAN needs its own lcm.prefix)\n",
+                      kind.c_str(), who.c_str());
       if (models.size() > 1) {
         std::printf("cell files differ (box, cameras or parts; cell_model):");
         for (const auto& [model, who] : models) std::printf(" %.0f in %s;", model, who.c_str());

@@ -62,7 +62,7 @@ const char* toString(StopReason r) {
     case StopReason::ClockAhead:
       return "plan ahead of this host's clock";
     case StopReason::PlannerMismatch:
-      return "planner plans for another arm";
+      return "not the planner to follow";
     case StopReason::HeartbeatLost:
       return "planner heartbeat lost";
     case StopReason::Workspace:

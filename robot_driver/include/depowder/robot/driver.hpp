@@ -86,9 +86,10 @@ class Driver {
   /// Validates and prepares a plan (IK, workspace, speeds, age); the loop takes it over at its
   /// next cycle. A refused plan changes nothing.
   PlanResult submitPlan(const Plan& plan);
-  /// A heartbeat of the planner process arrived now. `mismatch` non-empty (why): that planner plans
-  /// for another arm or workspace than this driver's (armModelId); its heartbeat counts as none,
-  /// plans are refused and a running one brought to a controlled stop, saying why.
+  /// A heartbeat of the planner process arrived now. `mismatch` non-empty: why it is not the
+  /// planner to follow (PlannerWatch: it plans for another arm or workspace, another planner
+  /// publishes too, or it is stopping); it counts as none, plans are refused and a running one is
+  /// brought to a controlled stop, saying why.
   void plannerHeartbeat(const std::string& mismatch = "");
   /// stop = true: Robot_Halt at once (on the watch connection, from the caller's thread), then
   /// motor off; latched. stop = false: reset; the arm is re-enabled where it is, without a plan.

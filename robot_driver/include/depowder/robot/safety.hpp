@@ -60,7 +60,7 @@ enum class StopReason {
   None,
   PlanStale,        ///< the executing plan is older than plan_max_age_s
   ClockAhead,       ///< the plan's utime is ahead of this host's clock by more than plan_max_lead_s
-  PlannerMismatch,  ///< the planner plans for another arm or workspace (armModelId)
+  PlannerMismatch,  ///< the planner's heartbeat did not count (PlannerWatch: another arm, two planners)
   HeartbeatLost,    ///< no planner heartbeat for planner_heartbeat_timeout_s
   Workspace,        ///< the commanded nozzle left the workspace box
 };
@@ -97,7 +97,7 @@ SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std:
 /// model (base pose, tool offset, joint limits, speeds, home, IK weights, tool radius) and of the
 /// workspace box, from their values (not the file's text). A whole number below 2^52, exact in a
 /// heartbeat stat (`arm_model`). On several hosts each reads its own cell file: the driver
-/// compares the planner's with its own (driver.hpp, plannerHeartbeat).
+/// compares the planner's with its own (PlannerWatch).
 double armModelId(const ArmConfig& arm, const Workspace& workspace);
 
 /// Whether the planner heartbeats the driver hears come from the one planner it may follow: a
