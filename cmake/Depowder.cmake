@@ -47,6 +47,10 @@ function(depowder_test name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
+  if(DEPOWDER_SANITIZE)  # the sanitized build runs about 10 times slower
+    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 3")
+    target_compile_definitions(${name} PRIVATE DEPOWDER_SANITIZE=1)  # for a test with a time budget
+  endif()
   if(ARG_NETNS)
     # udpm between processes: every test skips outside a private network namespace.
     target_sources(${name} PRIVATE ${PROJECT_SOURCE_DIR}/test/private_network_env.cpp)

@@ -45,6 +45,9 @@ class TransitionTest : public ::testing::Test {
   std::unique_ptr<CollisionWorld> world;
 
   void SetUp() override {
+#ifdef DEPOWDER_SANITIZE
+    config.transition.time_limit *= 10;  // OMPL's budget: the sanitized build runs about 10 times slower
+#endif
     auto pillar = std::make_shared<PartShape>("pillar", pillar_mesh);
     world = std::make_unique<CollisionWorld>(std::vector<std::shared_ptr<const PartShape>>{pillar}, Box{},
                                              config.nozzle, config.collision, arm);
