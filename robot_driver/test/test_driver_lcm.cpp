@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "depowder/estop_t.hpp"
@@ -62,12 +63,16 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
     }
   };
   auto alive = [&] { beat(-1); };
-  p.spinUntil(
-      [&] {
-        alive();
-        return false;
-      },
-      0.3);
+  // 0.3 s of the bus with `beats` called at each spin.
+  auto keep = [&](const std::function<void()>& beats) {
+    p.spinUntil(
+        [&] {
+          beats();
+          return false;
+        },
+        0.3);
+  };
+  keep(alive);
   p.bus->publish("NOZZLE_PLAN", p.plan(1, {down(0, 0, 0.3), down(0.1, -0.05, 0.2)}, 0.25));
   ASSERT_TRUE(p.spinUntil(
       [&] {
@@ -138,12 +143,7 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
       1));
   EXPECT_FALSE(p.emu->tool().vacuum);
   const auto q_halt = p.emu->joints().q;
-  p.spinUntil(
-      [&] {
-        alive();
-        return false;
-      },
-      0.3);
+  keep(alive);
   EXPECT_EQ(p.emu->joints().q, q_halt);
   EXPECT_EQ(last.mode, +robot_state_t::MODE_ESTOPPED);
   p.bus->publish("ESTOP", estopMsg(false));
@@ -173,12 +173,7 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
   // 6. A planner that plans for another arm (its cell file's robot section differs): its plans
   // are refused, saying so; the heartbeat of one without the figure counts again.
   auto other_arm = [&] { beat(12345); };
-  p.spinUntil(
-      [&] {
-        other_arm();
-        return false;
-      },
-      0.3);
+  keep(other_arm);
   const auto q_hold = p.emu->joints().q;
   p.bus->publish("NOZZLE_PLAN", p.plan(5, {down(0, 0, 0.25)}, 0.1));
   ASSERT_TRUE(p.spinUntil(
@@ -192,12 +187,7 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
             std::string::npos)
       << hb.state_reason;
   EXPECT_EQ(p.emu->joints().q, q_hold);
-  p.spinUntil(
-      [&] {
-        alive();
-        return false;
-      },
-      0.3);
+  keep(alive);
   p.bus->publish("NOZZLE_PLAN", p.plan(6, {down(0, 0, 0.25)}, 0.1));
   ASSERT_TRUE(p.spinUntil(
       [&] {
@@ -214,12 +204,7 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
     beat(-1);
     if (due) p.plannerHeartbeat(-1, 2);
   };
-  p.spinUntil(
-      [&] {
-        two();
-        return false;
-      },
-      0.3);
+  keep(two);
   p.bus->publish("NOZZLE_PLAN", p.plan(7, {down(0.05, 0, 0.25)}, 0.1));
   ASSERT_TRUE(p.spinUntil(
       [&] {
@@ -231,12 +216,7 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
   EXPECT_NE(hb.state_reason.find("2 planners publish plans (test:1, test:2)"), std::string::npos) << hb.state_reason;
   EXPECT_NE(last.plan_id, 7);
   p.plannerHeartbeat(-1, 2, heartbeat_t::STOPPING);
-  p.spinUntil(
-      [&] {
-        alive();
-        return false;
-      },
-      0.3);
+  keep(alive);
   p.bus->publish("NOZZLE_PLAN", p.plan(8, {down(0.05, 0, 0.25)}, 0.1));
   ASSERT_TRUE(p.spinUntil(
       [&] {
