@@ -250,6 +250,18 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
   s.readChoice("arm", out.arm, {"script", "emulator"});
   s.read("emulator_bind", out.emulator_bind);
   readFaults(s, out);
+  for (const YamlReader& item : s.items("camera_truth")) {
+    std::string name;
+    item.require("camera", name);
+    const auto cam =
+        std::find_if(out.cameras.begin(), out.cameras.end(), [&](const CameraModel& c) { return c.name == name; });
+    if (cam == out.cameras.end()) item.fail("camera", "names no camera of the cell ('" + name + "')");
+    if (!item.has("pose")) item.fail("pose", "is required (where the camera really is)");
+    if (out.claimed_camera_poses.count(name)) item.fail("camera", "is given twice");
+    out.claimed_camera_poses[name] = cam->T_cell_camera;
+    item.readPose("pose", cam->T_cell_camera);
+    item.finish();
+  }
   for (const SimSetup::Fault& f : out.faults)
     if (f.drop_controller && out.arm != "emulator") s.fail("faults", "drop_controller needs arm: emulator");
 

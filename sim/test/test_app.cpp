@@ -133,6 +133,19 @@ TEST(SimApp, ASilencedCameraPublishesNothingForItsWindow) {
   EXPECT_NE(slurp(scratch() / "out.txt").find("camera A silent for 0.4"), std::string::npos);
 }
 
+TEST(SimSetup, CameraTruthRendersFromItsPoseAndKeepsTheCellsForTheFrames) {
+  const SimSetup s = loadSimSetup(cellWithSim(
+      "truth.yaml", "  camera_truth: [{camera: A, pose: {xyz: [0.01, -0.44, 0.56], rpy_deg: [-140, 1, 2]}}]\n"));
+  const Pose cell = lookAt({0, -0.45, 0.55}, {0, 0, 0.05});
+  ASSERT_EQ(s.claimed_camera_poses.count("A"), 1u);
+  EXPECT_LT(translationDistance(s.claimed_camera_poses.at("A"), cell), 1e-12);
+  EXPECT_LT(rotationDistanceDeg(s.claimed_camera_poses.at("A"), cell), 1e-5);  // acos near 1
+  const Pose truth = makePoseRpy({0.01, -0.44, 0.56}, -140 * M_PI / 180, M_PI / 180, 2 * M_PI / 180);
+  EXPECT_LT(translationDistance(s.cameras.at(0).T_cell_camera, truth), 1e-12);
+  EXPECT_LT(rotationDistanceDeg(s.cameras.at(0).T_cell_camera, truth), 1e-5);
+  EXPECT_TRUE(loadSimSetup(cellWithSim("none.yaml", "  seed: 2\n")).claimed_camera_poses.empty());
+}
+
 TEST(SimSetup, BadSimKeysNameTheFileTheKeyAndTheRange) {
   expectConfigError("  bogus: 1\n", {"bad.yaml", "unknown key 'bogus'", "'sim'"});
   expectConfigError("  powder: {repose_deg: 80}\n", {"bad.yaml", "'sim.powder.repose_deg'", "[5, 60]"});
@@ -150,6 +163,10 @@ TEST(SimSetup, BadSimKeysNameTheFileTheKeyAndTheRange) {
   expectConfigError("  faults: [{at: 1, silence_camera: B, duration: 1}]\n", {"'sim.faults[0].silence_camera'", "'B'"});
   expectConfigError("  faults: [{at: 1, drop_controller: true}]\n", {"'sim.faults'", "arm: emulator"});
   expectConfigError("  faults: [{silence_camera: A}]\n", {"'sim.faults[0].at'"});
+  expectConfigError("  camera_truth: [{camera: B, pose: {xyz: [0, 0, 1]}}]\n", {"'sim.camera_truth[0].camera'", "'B'"});
+  expectConfigError("  camera_truth: [{camera: A}]\n", {"'sim.camera_truth[0].pose'", "required"});
+  expectConfigError("  camera_truth: [{camera: A, pose: {xyz: [0, 0, 1]}}, {camera: A, pose: {xyz: [0, 0, 1]}}]\n",
+                    {"'sim.camera_truth[1].camera'", "twice"});
   // An overlay may hold nothing but the sim section.
   const std::string overlay = write("overlay.yaml", "sim: {seed: 3}\ntracker: {}\n");
   try {
