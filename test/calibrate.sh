@@ -1,30 +1,24 @@
 #!/bin/sh
 # depowder-calibrate against the simulator: camera LEFT renders from a pose 7 mm and 1.5 deg
-# from the one its frames carry (sim.camera_truth); the calibration must find the true pose,
+# from the one its frames carry (config/scenarios/camera_off.yaml); the calibration must find the true pose,
 # live and from a recorded log, and leave RIGHT (where the cell says it is) where it is.
 #   test/calibrate.sh BIN_DIR SOURCE_DIR   (inside test/netns-run)
 set -eu
 BIN=$1
 SRC=$2
 rm -f depth.lcm ./*.out
-cat > overlay.yaml <<'EOF'
-sim:
-  arm: script
-  physics: {enabled: false}
-  camera_truth:
-    - {camera: LEFT, pose: {xyz: [0.004, -0.355, 0.747], rpy_deg: [-152.4, 0.6, -0.8]}}
-EOF
+CELL=$SRC/config/scenarios/camera_off.yaml  # LEFT rendered from xyz [0.004, -0.355, 0.747], rpy_deg [-152.4, 0.6, -0.8]
 # The same pose as a quaternion (w x y z), for the comparison below.
 TRUE_LEFT="0.004 -0.355 0.747 0.2385599 -0.9710886 0.0080286 0.0034195"
 TRUE_RIGHT="0 0.35 0.75 0 0 0.9732490 -0.2297529"  # lookAt((0, 0.35, 0.75), (0, 0, 0.05))
 
-"$BIN/depowder-sim" --cell "$SRC/config/cell.yaml" --scenario overlay.yaml --duration 60 > sim.out 2>&1 &
+"$BIN/depowder-sim" --cell "$CELL" --duration 60 > sim.out 2>&1 &
 sim=$!
 lcm-logger --quiet --force -c 'DEPTH_.*' depth.lcm > logger.out 2>&1 &
 logger=$!
 trap 'kill $sim $logger 2>/dev/null || true' EXIT
 sleep 1
-"$BIN/depowder-calibrate" --cell "$SRC/config/cell.yaml" --frames 20 --timeout 30 > live.out
+"$BIN/depowder-calibrate" --cell "$CELL" --frames 20 --timeout 30 > live.out
 kill $logger
 wait $logger || true
 
@@ -53,12 +47,12 @@ done
 grep -q "LEFT: 20 frames" live.out || { echo "LEFT: not 20 frames"; failed=1; }
 
 # The same from the recording (each camera's first 20 frames in it).
-"$BIN/depowder-calibrate" --cell "$SRC/config/cell.yaml" --frames 20 --log depth.lcm > log.out
+"$BIN/depowder-calibrate" --cell "$CELL" --frames 20 --log depth.lcm > log.out
 check log.out LEFT "$TRUE_LEFT" || failed=1
 check log.out RIGHT "$TRUE_RIGHT" || failed=1
 
 # A camera that sends nothing: named, exit status 1.
-if "$BIN/depowder-calibrate" --cell "$SRC/config/cell.yaml" --camera TOP --timeout 1 > none.out; then
+if "$BIN/depowder-calibrate" --cell "$CELL" --camera TOP --timeout 1 > none.out; then
   echo "a silent camera was reported calibrated"; failed=1
 fi
 grep -q "TOP: no usable frame on DEPTH_TOP" none.out || { echo "no 'no usable frame' for TOP"; failed=1; }
