@@ -1,7 +1,8 @@
 #!/bin/sh
 # depowder-calibrate against the simulator: camera LEFT renders from a pose 7 mm and 1.5 deg
 # from the one its frames carry (config/scenarios/camera_off.yaml); the calibration must find the true pose,
-# live and from a recorded log, and leave RIGHT (where the cell says it is) where it is.
+# live and from a recorded log, and leave RIGHT (where the cell says it is) where it is; and
+# the camera proxy must flag the two cameras' disagreement.
 #   test/calibrate.sh BIN_DIR SOURCE_DIR   (inside test/netns-run)
 set -eu
 BIN=$1
@@ -56,6 +57,14 @@ if "$BIN/depowder-calibrate" --cell "$CELL" --camera TOP --timeout 1 > none.out;
   echo "a silent camera was reported calibrated"; failed=1
 fi
 grep -q "TOP: no usable frame on DEPTH_TOP" none.out || { echo "no 'no usable frame' for TOP"; failed=1; }
+
+# The camera proxy on the same cell flags the two cameras' disagreement (perception.agreement).
+"$BIN/depowder-camera" --cell "$CELL" > camera.out 2>&1 &
+camera=$!
+trap 'kill $sim $camera 2>/dev/null || true' EXIT
+"$BIN/depowder-status" --once --timeout 6 > status.out
+grep -q "depowder-camera.*degraded.*cameras RIGHT and LEFT see the powder .* apart and .* deg tilted" status.out ||
+  { echo "depowder-camera did not flag the cameras' disagreement"; cat status.out; failed=1; }
 
 if [ $failed -ne 0 ]; then cat live.out log.out none.out; exit 1; fi
 cat live.out

@@ -4,8 +4,10 @@
 #include <chrono>
 #include <cstdio>
 #include <deque>
+#include <iomanip>
 #include <iostream>
 #include <map>
+#include <sstream>
 #include <thread>
 
 #include "camera_options.hpp"
@@ -224,6 +226,18 @@ class CameraNode {
       } else if (h.stale) {
         reason +=
             "camera " + h.name + " stale (" + std::to_string(static_cast<int>(h.utime_lag * 1000)) + " ms behind); ";
+      }
+    }
+    for (const auto& [name, a] : proxy_.agreement()) {
+      if (!a.last.valid) continue;
+      heartbeat_.setStat("apart_mm_" + name, 1000 * a.last.offset);
+      heartbeat_.setStat("tilt_deg_" + name, a.last.tilt_deg);
+      if (a.flagged) {
+        std::ostringstream s;
+        s << std::setprecision(2) << std::fixed << "cameras " << name << " and " << a.reference << " see the powder "
+          << 1000 * a.last.offset << " mm apart and " << a.last.tilt_deg
+          << " deg tilted: has one moved? (depowder-calibrate); ";
+        reason += s.str();
       }
     }
     if (!c.last_error.ok() && c.dropped() > reported_drops_) {

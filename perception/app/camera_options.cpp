@@ -30,6 +30,17 @@ void readSection(const node::YamlReader& r, CameraNodeOptions& o) {
   sf.read("margin", p.self_filter.margin, -1.0, 0.2);
   sf.read("max_age", p.self_filter.max_age, 0.0, 1.0);
   sf.finish();
+  const node::YamlReader ag = r.child("agreement");
+  AgreementConfig& a = p.agreement;
+  ag.read("period", a.period, -1.0, 3600.0);
+  ag.read("cell", a.cell, 0.002, 0.1);
+  ag.read("wall_margin", a.wall_margin, 0.0, 0.5);
+  ag.read("min_points", a.min_points, 1, 1000);
+  ag.read("min_cells", a.min_cells, 3, 1000000);
+  ag.read("max_offset", a.max_offset, 0.0, 0.1);
+  ag.read("max_tilt_deg", a.max_tilt_deg, 0.0, 45.0);
+  ag.read("flag_after", a.flag_after, 1, 1000);
+  ag.finish();
   const node::YamlReader f = r.child("files");
   FilesConfig& files = o.files;
   f.read("dir", files.dir);

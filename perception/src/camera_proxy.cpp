@@ -1,6 +1,7 @@
 #include "depowder/perception/camera_proxy.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 namespace depowder::perception {
@@ -14,7 +15,8 @@ CameraProxy::CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& 
     : config_(config),
       crop_(cropBox(box_size, config.crop_margin)),
       merger_(config.merger, std::move(known_cameras)),
-      grid_(crop_, config.voxel_leaf) {}
+      grid_(crop_, config.voxel_leaf),
+      box_size_(box_size) {}
 
 FrameError CameraProxy::addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival) {
   auto it = deprojectors_.find(camera.name);
@@ -68,6 +70,23 @@ const Pose* CameraProxy::nozzleAt(std::int64_t utime) const {
   return best;
 }
 
+void CameraProxy::checkAgreement(const MergedFrame& merged) {
+  const AgreementConfig& c = config_.agreement;
+  const std::int64_t since = merged.utime - last_check_;  // < 0: the clock went back (a log played again)
+  if (c.period <= 0 || merged.sources.size() < 2 || (since >= 0 && since < c.period * 1e6)) return;
+  last_check_ = merged.utime;
+  const CameraFrame& reference = merged.sources.front();
+  for (std::size_t k = 1; k < merged.sources.size(); ++k) {
+    CameraAgreement& a = agreement_[merged.sources[k].camera];
+    a.camera = merged.sources[k].camera;
+    a.reference = reference.camera;
+    a.last = compareHeights(merged.sources[k].points, reference.points, box_size_, c);
+    const bool over = a.last.valid && (std::abs(a.last.offset) > c.max_offset || a.last.tilt_deg > c.max_tilt_deg);
+    a.over = over ? a.over + 1 : 0;  // a check without a figure (the powder hidden) ends a run too
+    a.flagged = a.over >= c.flag_after;
+  }
+}
+
 CellCloud CameraProxy::finish(MergedFrame&& merged) {
   CellCloud out;
   out.utime = merged.utime;
@@ -92,6 +111,9 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
       out.on_nozzle += before - f.points.size();
     }
     grid_.add(f.points);
+  }
+  checkAgreement(merged);
+  for (CameraFrame& f : merged.sources) {
     if (spare_.size() < 8) spare_.push_back(std::move(f.points));  // capacity reused by the next frames
   }
   VoxelGrid::Result voxels = grid_.extract(config_.outlier_min_neighbours);

@@ -199,3 +199,40 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   EXPECT_EQ(stale.on_nozzle, 0u);
   EXPECT_EQ(stale.points.size(), all.points.size());
 }
+
+// config.agreement: a camera whose frames claim a pose 1 deg off its true one is flagged after
+// flag_after checks of period seconds each; the cameras where they say never are.
+TEST(CameraProxy, ACameraThatMovedIsFlaggedAfterThreeChecks) {
+  const auto rig = defaultRig(320, 240);
+  const Scene s = scene();
+  auto run = [&](double turn_deg) {
+    PerceptionConfig cfg;  // period 1 s, flag_after 3
+    CameraProxy proxy(cfg, kBox, {"LEFT", "RIGHT"});
+    PinholeCamera claimed = rig[0];
+    claimed.T_cell_camera.linear() =
+        Eigen::AngleAxisd(turn_deg * M_PI / 180, Eigen::Vector3d::UnitX()).matrix() * rig[0].T_cell_camera.linear();
+    const DepthImage left = render(s, rig[0], 0), right = render(s, rig[1], 0);
+    std::vector<bool> flagged;
+    for (int k = 0; k < 8; ++k) {  // one time step every 0.5 s: a check every other step
+      const std::int64_t t = kT0 + k * 500'000;
+      DepthImage l = left, r = right;
+      l.utime = r.utime = t;
+      proxy.addDepth(l, claimed, t);
+      proxy.addDepth(r, rig[1], t);
+      EXPECT_EQ(proxy.poll(t).size(), 1u);
+      flagged.push_back(proxy.agreement().count("RIGHT") ? proxy.agreement().at("RIGHT").flagged : false);
+    }
+    return std::make_pair(flagged, proxy.agreement());
+  };
+  const auto [ok_flags, ok] = run(0.0);
+  ASSERT_EQ(ok.size(), 1u);
+  EXPECT_EQ(ok.begin()->first, "RIGHT");  // compared with LEFT, the first by name
+  EXPECT_EQ(ok.at("RIGHT").reference, "LEFT");
+  EXPECT_TRUE(ok.at("RIGHT").last.valid);
+  EXPECT_LT(ok.at("RIGHT").last.tilt_deg, 0.1);  // measured 0.053 (the sphere's edge cells), the limit 0.25
+  EXPECT_EQ(ok_flags, std::vector<bool>(8, false));
+  const auto [off_flags, off] = run(1.0);
+  EXPECT_NEAR(off.at("RIGHT").last.tilt_deg, 1.0, 0.1);
+  // Checks at steps 0, 2, 4, 6: the third over the limit is step 4.
+  EXPECT_EQ(off_flags, (std::vector<bool>{false, false, false, false, true, true, true, true}));
+}

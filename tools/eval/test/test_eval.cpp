@@ -497,6 +497,32 @@ TEST(EvalCell, ACameraOffItsClaimedPoseIsDeprojectedWithTheClaim) {
   EXPECT_GT(std::abs(z_off - z_true), 0.001) << z_off << " m against " << z_true;
 }
 
+// The camera proxy's agreement check (perception::compareHeights) on the simulator's powder dug
+// round a part (slopes at the angle of repose, each side seen better by one camera): cameras
+// where they say must stay well inside its limits, and LEFT 7.2 mm and 1.46 deg off beyond them.
+TEST(EvalCell, DugPowderKeepsCorrectCamerasInAgreement) {
+  const EvalCell off = loadEvalCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/scenarios/camera_off.yaml");
+  const perception::AgreementConfig limits;
+  for (double eta : {0.3, 0.8}) {
+    sim::World world(off.sim, off.box,
+                     {{"cube", parts::cube(), placePart(parts::cube(), 0.4, {0.03, 0.01}, 0.0), 1000}}, off.cameras, 9);
+    world.digToVisibility(0, eta);
+    auto cloud = [&](std::size_t c, bool claimed) {
+      ProxyInput in = toProxyInput(world.render(c));
+      if (claimed && off.claimed_camera_poses.count(in.camera.name))
+        in.camera.T_cell_camera = off.claimed_camera_poses.at(in.camera.name);
+      return perception::deproject(in.image, in.camera, perception::cropBox(off.box.size, 0.005)).points;
+    };
+    const Cloud right = cloud(1, true);
+    const perception::Agreement ok = perception::compareHeights(cloud(0, false), right, off.box.size, limits);
+    const perception::Agreement bad = perception::compareHeights(cloud(0, true), right, off.box.size, limits);
+    ASSERT_TRUE(ok.valid && bad.valid);
+    EXPECT_LT(std::abs(ok.offset), 0.5 * limits.max_offset) << "eta " << eta << ": " << ok.offset;
+    EXPECT_LT(ok.tilt_deg, 0.5 * limits.max_tilt_deg) << "eta " << eta;
+    EXPECT_GT(bad.tilt_deg, 2 * limits.max_tilt_deg) << "eta " << eta;
+  }
+}
+
 TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   const std::string bin = std::string(DEPOWDER_BIN_DIR) + "/depowder-eval";
   const std::string json = ::testing::TempDir() + "eval_cli.json";

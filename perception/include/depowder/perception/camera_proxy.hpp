@@ -29,6 +29,15 @@ struct CellCloud {
   std::size_t on_nozzle = 0;         ///< cropped points removed as the nozzle's (self-filter)
 };
 
+/// How a camera's powder heights compare with the reference camera's (the first by name),
+/// at the newest check (config.agreement).
+struct CameraAgreement {
+  std::string camera, reference;
+  Agreement last;        ///< the newest check's figures (last.valid: enough cells seen by both)
+  int over = 0;          ///< checks in a row beyond max_offset or max_tilt_deg
+  bool flagged = false;  ///< over >= flag_after: the camera, or the reference, has probably moved
+};
+
 struct ProxyCounters {
   std::int64_t frames_in = 0;    ///< camera frames offered
   std::int64_t frames_out = 0;   ///< time steps released
@@ -63,12 +72,15 @@ class CameraProxy {
   std::int64_t nextDeadline() const { return merger_.nextDeadline(); }
   std::vector<CameraHealth> health(std::int64_t now) const { return merger_.health(now); }
   const ProxyCounters& counters() const { return counters_; }
+  /// Each camera's agreement with the reference, by camera name (none until two cameras were checked).
+  const std::map<std::string, CameraAgreement>& agreement() const { return agreement_; }
   const Eigen::AlignedBox3d& crop() const { return crop_; }
   const PerceptionConfig& config() const { return config_; }
 
  private:
   FrameError accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime, std::int64_t arrival);
   CellCloud finish(MergedFrame&& merged);
+  void checkAgreement(const MergedFrame& merged);
   const Pose* nozzleAt(std::int64_t utime) const;
 
   PerceptionConfig config_;
@@ -79,6 +91,9 @@ class CameraProxy {
   VoxelGrid grid_;
   ProxyCounters counters_;
   std::deque<std::pair<std::int64_t, Pose>> nozzle_poses_;  ///< the last second of ROBOT_STATE, oldest first
+  Eigen::Vector3d box_size_;
+  std::map<std::string, CameraAgreement> agreement_;
+  std::int64_t last_check_ = 0;  ///< utime of the newest agreement check
 };
 
 }  // namespace depowder::perception

@@ -3,6 +3,8 @@
 
 #include <cstdint>
 
+#include "depowder/perception/camera_agreement.hpp"
+
 namespace depowder::perception {
 
 /// How frames of different cameras are grouped into one time step.
@@ -40,6 +42,7 @@ struct PerceptionConfig {
   double resolution = 0.0005;      ///< m per count of the quantised point_cloud_t on the wire
   MergerConfig merger;
   SelfFilterConfig self_filter;
+  AgreementConfig agreement;  ///< the cameras' powder heights compared, to catch a camera that moved
 };
 
 }  // namespace depowder::perception
