@@ -89,6 +89,9 @@ bool report(const std::string& name, const CameraFrames& f, const node::CellConf
             << " deg from the frames' pose\n"
             << "  points to the box (median): " << 1000 * c.median_before << " mm before, " << 1000 * c.median_after
             << " mm after; the powder at z = " << 1000 * c.powder_level << " mm\n"
+            << (c.median_after > 0.0015 ? "  the points lie far from the box (median over 1.5 mm): is the powder flat, "
+                                          "and the cell file's box the one in view?\n"
+                                        : "")
             << "  pinned to +-" << 1000 * c.sigma_t.maxCoeff() << " mm and +-" << c.sigma_r.maxCoeff() * 180 / M_PI
             << " deg (noise alone)\n"
             << "  in the cell file's cameras entry " << name << ", in place of position and look_at (or pose):\n    ";
