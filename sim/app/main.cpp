@@ -246,10 +246,7 @@ int main(int argc, char** argv) {
         const DepthImage img = world->render(c);
         render_ms = 0.95 * render_ms +
                     0.05 * std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - r0).count();
-        depth_image_t msg = toMsg(img, step_utime);
-        const auto claimed = setup.claimed_camera_poses.find(img.camera);  // sim.camera_truth
-        if (claimed != setup.claimed_camera_poses.end()) msg.T_cell_camera = node::toMsg(claimed->second);
-        bus.publish("DEPTH_" + img.camera, msg);
+        bus.publish("DEPTH_" + img.camera, toMsg(img, step_utime));
         ++frames;
       }
 

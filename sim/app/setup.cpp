@@ -257,8 +257,8 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
         std::find_if(out.cameras.begin(), out.cameras.end(), [&](const CameraModel& c) { return c.name == name; });
     if (cam == out.cameras.end()) item.fail("camera", "names no camera of the cell ('" + name + "')");
     if (!item.has("pose")) item.fail("pose", "is required (where the camera really is)");
-    if (out.claimed_camera_poses.count(name)) item.fail("camera", "is given twice");
-    out.claimed_camera_poses[name] = cam->T_cell_camera;
+    if (cam->T_cell_camera_claimed) item.fail("camera", "is given twice");
+    cam->T_cell_camera_claimed = cam->T_cell_camera;
     item.readPose("pose", cam->T_cell_camera);
     item.finish();
   }

@@ -4,7 +4,6 @@
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -58,10 +57,6 @@ struct SimSetup {
     bool drop_controller = false;  ///< the b-CAP emulator drops every connection at `at` (needs arm: emulator)
   };
   std::vector<Fault> faults;
-  /// sim.camera_truth: cameras that render from a pose of their own while their DEPTH_* frames
-  /// carry the cameras section's (an extrinsics error, for depowder-calibrate to find): name ->
-  /// the pose the cameras section gives, which `cameras` holds in place of it the true one.
-  std::map<std::string, Pose> claimed_camera_poses;
 };
 
 /// The simulated camera of a cell camera: the same intrinsics, range, rate and noise.

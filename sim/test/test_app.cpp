@@ -137,13 +137,15 @@ TEST(SimSetup, CameraTruthRendersFromItsPoseAndKeepsTheCellsForTheFrames) {
   const SimSetup s = loadSimSetup(cellWithSim(
       "truth.yaml", "  camera_truth: [{camera: A, pose: {xyz: [0.01, -0.44, 0.56], rpy_deg: [-140, 1, 2]}}]\n"));
   const Pose cell = lookAt({0, -0.45, 0.55}, {0, 0, 0.05});
-  ASSERT_EQ(s.claimed_camera_poses.count("A"), 1u);
-  EXPECT_LT(translationDistance(s.claimed_camera_poses.at("A"), cell), 1e-12);
-  EXPECT_LT(rotationDistanceDeg(s.claimed_camera_poses.at("A"), cell), 1e-5);  // acos near 1
+  ASSERT_TRUE(s.cameras.at(0).T_cell_camera_claimed.has_value());
+  EXPECT_LT(translationDistance(*s.cameras.at(0).T_cell_camera_claimed, cell), 1e-12);
+  EXPECT_LT(rotationDistanceDeg(*s.cameras.at(0).T_cell_camera_claimed, cell), 1e-5);  // acos near 1
   const Pose truth = makePoseRpy({0.01, -0.44, 0.56}, -140 * M_PI / 180, M_PI / 180, 2 * M_PI / 180);
   EXPECT_LT(translationDistance(s.cameras.at(0).T_cell_camera, truth), 1e-12);
   EXPECT_LT(rotationDistanceDeg(s.cameras.at(0).T_cell_camera, truth), 1e-5);
-  EXPECT_TRUE(loadSimSetup(cellWithSim("none.yaml", "  seed: 2\n")).claimed_camera_poses.empty());
+  EXPECT_FALSE(loadSimSetup(cellWithSim("none.yaml", "  seed: 2\n")).cameras.at(0).T_cell_camera_claimed);
+  // Its frames carry the claimed pose, not the one they were rendered from.
+  EXPECT_LT(translationDistance(makeWorld(s)->render(0).T_cell_camera, cell), 1e-12);
 }
 
 TEST(SimSetup, BadSimKeysNameTheFileTheKeyAndTheRange) {

@@ -16,7 +16,6 @@ EvalCell loadEvalCell(const std::string& path) {
   EvalCell out;
   out.box = setup.box;
   out.cameras = setup.cameras;
-  out.claimed_camera_poses = setup.claimed_camera_poses;
   if (out.cameras.empty()) throw node::ConfigError(setup.cell_file + ": no cameras");
   out.sim = setup.config;
   // Rigid-body physics as each experiment needs it: off in static and speed (the part held still or

@@ -57,7 +57,7 @@ tracker::TrackerConfig baseTrackerConfig() {
 tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell& cell) {
   tracker::TrackerConfig c = cell.tracker;
   c.method = method;
-  c.viewpoints = viewpoints(cell);
+  c.viewpoints = viewpoints(cell.cameras);
   return c;
 }
 

@@ -18,12 +18,10 @@ Pose placePart(const Mesh& mesh, double yaw, const Eigen::Vector2d& xy, double b
   return T;
 }
 
-std::vector<Point> viewpoints(const EvalCell& cell) {
+std::vector<Point> viewpoints(const std::vector<sim::CameraModel>& cameras) {
   std::vector<Point> out;
-  for (const sim::CameraModel& c : cell.cameras) {
-    const auto claimed = cell.claimed_camera_poses.find(c.name);
-    out.push_back((claimed == cell.claimed_camera_poses.end() ? c.T_cell_camera : claimed->second).translation());
-  }
+  for (const sim::CameraModel& c : cameras)
+    out.push_back(c.T_cell_camera_claimed.value_or(c.T_cell_camera).translation());
   return out;
 }
 
@@ -58,15 +56,12 @@ std::vector<std::string> cameraNames(const std::vector<sim::CameraModel>& camera
 
 FrameSource::FrameSource(const EvalCell& cell)
     : proxy_(cell.perception, cell.box.size, cameraNames(cell.cameras)),
-      max_wait_us_(std::llround(cell.perception.merger.max_wait * 1e6)),
-      claimed_(cell.claimed_camera_poses) {}
+      max_wait_us_(std::llround(cell.perception.merger.max_wait * 1e6)) {}
 
 Cloud FrameSource::capture(sim::World& world, const Pose* T_cell_nozzle) {
   std::int64_t utime = 0;
   for (std::size_t c = 0; c < world.cameras().size(); ++c) {
-    ProxyInput in = toProxyInput(world.render(c));
-    const auto claimed = claimed_.find(in.camera.name);  // the pose the frame says, not where it was taken
-    if (claimed != claimed_.end()) in.camera.T_cell_camera = claimed->second;
+    const ProxyInput in = toProxyInput(world.render(c));  // the pose the frame says (a claimed one too)
     utime = in.image.utime;
     proxy_.addDepth(in.image, in.camera, utime);  // arrival = capture time: no transport delay in process
   }

@@ -472,16 +472,17 @@ TEST(EvalCell, TakesTheCellFilesSimPerceptionAndTrackerSections) {
 TEST(EvalCell, ACameraOffItsClaimedPoseIsDeprojectedWithTheClaim) {
   const EvalCell off = loadEvalCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/scenarios/camera_off.yaml");
   const Pose claimed = lookAt({0.0, -0.35, 0.75}, {0.0, 0.0, 0.05});
-  ASSERT_EQ(off.claimed_camera_poses.count("LEFT"), 1u);
-  EXPECT_LT(translationDistance(off.claimed_camera_poses.at("LEFT"), claimed), 1e-12);
+  ASSERT_EQ(off.cameras.at(0).name, "LEFT");
+  ASSERT_TRUE(off.cameras.at(0).T_cell_camera_claimed.has_value());
+  EXPECT_LT(translationDistance(*off.cameras.at(0).T_cell_camera_claimed, claimed), 1e-12);
   EXPECT_NEAR(off.cameras.at(0).T_cell_camera.translation().x(), 0.004, 1e-12);
-  EXPECT_LT((viewpoints(off).at(0) - claimed.translation()).norm(), 1e-12);  // the tracker knows the claim
+  EXPECT_LT((viewpoints(off.cameras).at(0) - claimed.translation()).norm(), 1e-12);  // the tracker knows the claim
 
   // Over the middle of the box, the powder (flat, over a buried cube) as the scan has it: where
   // LEFT's surface and RIGHT's no longer coincide there are more 5 mm voxels (measured: 3857
   // against 3410) and their mean height moves (1.8 mm), with the same world and noise.
   EvalCell truth = off;
-  truth.claimed_camera_poses.clear();
+  for (sim::CameraModel& c : truth.cameras) c.T_cell_camera_claimed.reset();
   auto scan = [](const EvalCell& cell) {
     sim::World world(cell.sim, cell.box, {{"cube", parts::cube(), placePart(parts::cube(), 0, {0, 0}, 0.0), 1000}},
                      cell.cameras, 5);
@@ -508,9 +509,8 @@ TEST(EvalCell, DugPowderKeepsCorrectCamerasInAgreement) {
                      {{"cube", parts::cube(), placePart(parts::cube(), 0.4, {0.03, 0.01}, 0.0), 1000}}, off.cameras, 9);
     world.digToVisibility(0, eta);
     auto cloud = [&](std::size_t c, bool claimed) {
-      ProxyInput in = toProxyInput(world.render(c));
-      if (claimed && off.claimed_camera_poses.count(in.camera.name))
-        in.camera.T_cell_camera = off.claimed_camera_poses.at(in.camera.name);
+      ProxyInput in = toProxyInput(world.render(c));  // the frame carries the claimed pose
+      if (!claimed) in.camera.T_cell_camera = world.cameras()[c].T_cell_camera;
       return perception::deproject(in.image, in.camera, perception::cropBox(off.box.size, 0.005)).points;
     };
     const Cloud right = cloud(1, true);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,9 @@ struct CameraModel {
   double max_range = 9.0;                 ///< m, farther returns are invalid (L515: 9)
   double rate_hz = 30;                    ///< frames per second (L515: 30)
   Pose T_cell_camera = Pose::Identity();  ///< camera frame: x right, y down, z forward (optical axis)
+  /// The pose its frames carry when it is not the one it renders from (sim.camera_truth: a camera
+  /// knocked or measured wrongly); unset: T_cell_camera.
+  std::optional<Pose> T_cell_camera_claimed;
   DepthNoise noise;
 
   /// Intrinsics from the field of view, like node::CameraConfig (fx = w/2 / tan(fov_h/2), cx = (w-1)/2).

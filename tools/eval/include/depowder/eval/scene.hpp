@@ -4,7 +4,6 @@
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -23,8 +22,6 @@ tracker::TrackerConfig baseTrackerConfig();
 struct EvalCell {
   sim::BoxGeometry box;
   std::vector<sim::CameraModel> cameras;
-  std::map<std::string, Pose> claimed_camera_poses;      ///< sim.camera_truth: the pose a camera's frames carry
-                                                         ///< where it renders from another (its entry in `cameras`)
   sim::SimConfig sim;                                    ///< simulator defaults unless the caller changes them
   perception::PerceptionConfig perception;               ///< the camera process's defaults
   double fps = 30;                                       ///< camera frames per simulated second (L515: 30)
@@ -58,7 +55,7 @@ Pose placePart(const Mesh& mesh, double yaw, const Eigen::Vector2d& xy, double b
 
 /// Camera positions (cell frame): the tracker's viewpoints for back-face culling, as the node gives
 /// them (from the cell's cameras section: a claimed pose where sim.camera_truth gives one).
-std::vector<Point> viewpoints(const EvalCell& cell);
+std::vector<Point> viewpoints(const std::vector<sim::CameraModel>& cameras);
 
 /// The simulator's frame as the camera proxy takes it (the fields depth_image_t carries).
 struct ProxyInput {
@@ -81,7 +78,6 @@ class FrameSource {
  private:
   perception::CameraProxy proxy_;
   std::int64_t max_wait_us_;
-  std::map<std::string, Pose> claimed_;  ///< EvalCell::claimed_camera_poses: the pose each frame carries
 };
 
 /// Seed of one trial, mixing the run's seed with the trial's coordinates (splitmix64), so a
