@@ -78,7 +78,6 @@ void CameraProxy::checkAgreement(const MergedFrame& merged) {
   const CameraFrame& reference = merged.sources.front();
   for (std::size_t k = 1; k < merged.sources.size(); ++k) {
     CameraAgreement& a = agreement_[merged.sources[k].camera];
-    a.camera = merged.sources[k].camera;
     a.reference = reference.camera;
     a.last = compareHeights(merged.sources[k].points, reference.points, box_size_, c);
     const bool over = a.last.valid && (std::abs(a.last.offset) > c.max_offset || a.last.tilt_deg > c.max_tilt_deg);

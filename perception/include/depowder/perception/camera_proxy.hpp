@@ -32,7 +32,7 @@ struct CellCloud {
 /// How a camera's powder heights compare with the reference camera's (the first by name),
 /// at the newest check (config.agreement).
 struct CameraAgreement {
-  std::string camera, reference;
+  std::string reference;
   Agreement last;        ///< the newest check's figures (last.valid: enough cells seen by both)
   int over = 0;          ///< checks in a row beyond max_offset or max_tilt_deg
   bool flagged = false;  ///< over >= flag_after: the camera, or the reference, has probably moved
