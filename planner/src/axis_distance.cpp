@@ -175,9 +175,9 @@ AxisDistanceField::Result AxisDistanceField::query(double x, double y, double z0
               const int n = clipToSlab(tri, z0, z1, poly);
               if (n > 0) {
                 const V2 c2 = closestOnPolygon2(poly, n, q);
-                // Height of that point on the triangle: from the plane (or any clipped vertex).
+                // Height of that point on the triangle: from its plane (a vertical one: below).
                 const Point nrm = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-                double z = poly[0].z();
+                double z;
                 if (std::abs(nrm.z()) > 1e-12)
                   z = std::clamp(
                       tri[0].z() - (nrm.x() * (c2.x() - tri[0].x()) + nrm.y() * (c2.y() - tri[0].y())) / nrm.z(), z0,

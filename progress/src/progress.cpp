@@ -136,7 +136,8 @@ bool checkInputsAndHeights(const Cloud& cad_in_cell, const Cloud& scan, double x
 /// out's status and reason set, if there is no band.
 bool segmentAndEstimate(const PosedPart& g, const Cloud& scan, double xi, const ProgressConfig& config,
                         ProgressEstimate& out, Cloud* part) {
-  const auto [r_in, r_out] = bandOf(xi, config);
+  const Band band = bandOf(xi, config);
+  const double r_in = band.r_in, r_out = band.r_out;  // named, not bound: lambdas below use them
 
   // 4. Segmentation (Fig. 8a) and band candidates (Fig. 8b).
   const double slack = 1.5 * config.grid_cell;

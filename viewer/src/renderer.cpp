@@ -370,9 +370,11 @@ struct Renderer::Impl {
 };
 
 Renderer::Renderer(const RenderOptions& options) : impl_(std::make_unique<Impl>()) {
-  if (!displayUsable())
-    throw RenderError("no usable X display (DISPLAY=" + std::string(getenv("DISPLAY") ? getenv("DISPLAY") : "") +
+  if (!displayUsable()) {
+    const char* display = getenv("DISPLAY");
+    throw RenderError("no usable X display (DISPLAY=" + std::string(display ? display : "") +
                       "); VTK renders through GLX: run under Xvfb or let depowder-viewer start one (snapshot modes)");
+  }
   if (options.width < 16 || options.height < 16 || options.width > 8192 || options.height > 8192)
     throw RenderError("picture size must be 16..8192 pixels a side");
   Impl& d = *impl_;
