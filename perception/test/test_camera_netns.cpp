@@ -40,8 +40,9 @@ std::string liveCell() {
 #ifdef DEPOWDER_SANITIZE
   std::string text = readFile(kCell);
   const std::string key = "  max_wait: 0.04 ", parts = "mesh: parts/";
-  EXPECT_NE(text.find(key), std::string::npos) << kCell << " has no '" << key << "'";
-  if (text.find(key) != std::string::npos) text.replace(text.find(key), key.size(), "  max_wait: 0.4  ");
+  const std::size_t at = text.find(key);
+  EXPECT_NE(at, std::string::npos) << kCell << " has no '" << key << "'";
+  if (at != std::string::npos) text.replace(at, key.size(), "  max_wait: 0.4  ");
   for (auto at = text.find(parts); at != std::string::npos; at = text.find(parts, at + 1))
     text.replace(at, parts.size(), "mesh: " + std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/");
   const std::string path =
@@ -75,7 +76,8 @@ TEST(CameraNetns, LiveFramesBecomeOnePointsPerTimeStepAndCorruptFramesAreSurvive
 
   CameraRunConfig run;
   run.binary = kBinary;
-  run.extra_args = {"--cell", liveCell()};
+  const std::string cell = liveCell();
+  run.extra_args = {"--cell", cell};
   run.prefix = uniquePrefix("live");
   run.log_path = (fs::temp_directory_path() / (run.prefix + "camera.log")).string();
   run.steps = 90;  // 3 s at 30 Hz
@@ -140,6 +142,7 @@ TEST(CameraNetns, LiveFramesBecomeOnePointsPerTimeStepAndCorruptFramesAreSurvive
   EXPECT_NE(log.find("camera 'LEFT': frame 45 has no valid return"), std::string::npos) << log;
   EXPECT_NE(log.find("could not decode a 100-byte message on " + run.prefix + "DEPTH_LEFT"), std::string::npos) << log;
   fs::remove(run.log_path);
+  if (cell != kCell) fs::remove(cell);  // the sanitized build's copy
 }
 
 TEST(CameraNetns, SilentCameraIsReportedAndDoesNotStallTheStream) {

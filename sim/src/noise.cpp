@@ -60,7 +60,7 @@ void makeDepthImage(const DepthRasterizer& raster, const CameraModel& camera, do
   out.min_range = camera.min_range;
   out.max_range = camera.max_range;
   out.depth_unit = depth_unit;
-  out.T_cell_camera = camera.T_cell_camera_claimed.value_or(camera.T_cell_camera);
+  out.T_cell_camera = camera.framePose();
   out.depth.assign(static_cast<std::size_t>(W) * H, 0);
 
   const DepthNoise& noise = camera.noise;

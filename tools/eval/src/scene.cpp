@@ -20,8 +20,7 @@ Pose placePart(const Mesh& mesh, double yaw, const Eigen::Vector2d& xy, double b
 
 std::vector<Point> viewpoints(const std::vector<sim::CameraModel>& cameras) {
   std::vector<Point> out;
-  for (const sim::CameraModel& c : cameras)
-    out.push_back(c.T_cell_camera_claimed.value_or(c.T_cell_camera).translation());
+  for (const sim::CameraModel& c : cameras) out.push_back(c.framePose().translation());
   return out;
 }
 
