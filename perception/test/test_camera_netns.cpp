@@ -40,9 +40,9 @@ std::string liveCell() {
 #ifdef DEPOWDER_SANITIZE
   std::string text = readFile(kCell);
   const std::string key = "  max_wait: 0.04 ", parts = "mesh: parts/";
-  const std::size_t at = text.find(key);
-  EXPECT_NE(at, std::string::npos) << kCell << " has no '" << key << "'";
-  if (at != std::string::npos) text.replace(at, key.size(), "  max_wait: 0.4  ");
+  const std::size_t wait_at = text.find(key);
+  EXPECT_NE(wait_at, std::string::npos) << kCell << " has no '" << key << "'";
+  if (wait_at != std::string::npos) text.replace(wait_at, key.size(), "  max_wait: 0.4  ");
   for (auto at = text.find(parts); at != std::string::npos; at = text.find(parts, at + 1))
     text.replace(at, parts.size(), "mesh: " + std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/");
   const std::string path =
