@@ -34,7 +34,7 @@ RobotSection readRobotSection(const node::CellConfig& cell) {
   c.read("port", d.session.client.port, 1, 65535);
   c.read("connect_timeout", d.session.client.connect_timeout_s, 0.01, 60.0);
   c.read("reply_timeout", d.session.client.reply_timeout_s, 0.01, 60.0);
-  c.read("retries", d.session.client.retries, 0, 10);
+  c.read("service_option", d.session.service_option);
   c.read("executing_timeout", d.session.client.executing_timeout_s, 0.1, 600.0);
   c.read("slave_reply_timeout", d.session.slave_reply_timeout_s, 0.004, 1.0);
   c.read("slave_mode", d.session.slave_mode, 0x101, 0x203);

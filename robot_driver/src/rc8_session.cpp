@@ -55,7 +55,7 @@ Rc8Session::~Rc8Session() { abort(); }
 SessionResult Rc8Session::connectChannel(bcap::Client& c, std::uint32_t* controller, std::uint32_t* robot) {
   CallResult r = c.connect();
   if (!r.ok()) return SessionResult::from(r);
-  r = c.serviceStart("");
+  r = c.serviceStart(cfg_.service_option);
   if (!r.ok()) return SessionResult::from(r);
   r = c.controllerConnect(cfg_.controller_name, cfg_.provider, cfg_.machine, cfg_.options);
   if (!r.ok()) return SessionResult::from(r);
@@ -130,14 +130,20 @@ SessionResult Rc8Session::enable() {
   CallResult r = act_.robotExecute(robot_, "Motor", Variant::i4(1));
   if (!r.ok()) return SessionResult::from(r);
   motor_ = true;
+  // The slvMove formats, set as DENSO's driver sets them before TakeArm (the controller keeps the
+  // last ones set): the command is the joint array alone (slvSendFormat 0), the reply the joint
+  // array alone (slvRecvFormat 2; another format would put a position where jointsFrom reads joints).
+  r = act_.robotExecute(robot_, "slvSendFormat", Variant::i4(0));
+  if (!r.ok()) return SessionResult::from(r);
+  r = act_.robotExecute(robot_, "slvRecvFormat", Variant::i4(2));
+  if (!r.ok()) return SessionResult::from(r);
   r = act_.robotExecute(robot_, "TakeArm", Variant::i4Array({0, 1}));
   if (!r.ok()) return SessionResult::from(r);
   arm_taken_ = true;
   r = act_.robotExecute(robot_, "slvChangeMode", Variant::i4(cfg_.slave_mode));
   if (!r.ok()) return SessionResult::from(r);
   slave_ = true;
-  // Slave cycle: a short reply timeout and no re-send (a re-sent command would be late anyway).
-  act_.setTimeouts(cfg_.slave_reply_timeout_s, 0);
+  act_.setReplyTimeout(cfg_.slave_reply_timeout_s);  // the slave cycle's
   return {};
 }
 
@@ -176,7 +182,7 @@ SessionResult Rc8Session::halt() {
 }
 
 SessionResult Rc8Session::motorOff() {
-  act_.setTimeouts(cfg_.client.reply_timeout_s, cfg_.client.retries);
+  act_.setReplyTimeout(cfg_.client.reply_timeout_s);
   if (slave_) act_.robotExecute(robot_, "slvChangeMode", Variant::i4(0));
   slave_ = false;
   const CallResult r = act_.robotExecute(robot_, "Motor", Variant::i4(0));
@@ -190,7 +196,7 @@ SessionResult Rc8Session::close() {
     if (!r.ok() && first.ok) first = SessionResult::from(r);
   };
   if (act_.connected()) {
-    act_.setTimeouts(cfg_.client.reply_timeout_s, cfg_.client.retries);
+    act_.setReplyTimeout(cfg_.client.reply_timeout_s);
     if (tool_ != 0 && vacuum_ != 0) {
       keep(act_.variablePutValue(vacuum_, Variant::boolean(false)));
       keep(act_.variablePutValue(air_, Variant::boolean(false)));
@@ -225,7 +231,7 @@ void Rc8Session::abort() {
     std::lock_guard<PiMutex> lock(watch_mutex_);
     watch_.close();
   }
-  act_.setTimeouts(cfg_.client.reply_timeout_s, cfg_.client.retries);
+  act_.setReplyTimeout(cfg_.client.reply_timeout_s);
   controller_ = robot_ = vacuum_ = air_ = 0;
   watch_controller_ = watch_robot_ = 0;
   open_ = false;

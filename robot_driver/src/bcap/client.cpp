@@ -10,10 +10,24 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 
 namespace depowder::robot::bcap {
+
+namespace {
+
+// A handle as DENSO's clients send it: VT_I4.
+Variant handleArg(std::uint32_t h) { return Variant::i4(static_cast<std::int32_t>(h)); }
+
+std::string fixedSeconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g s", s);
+  return buf;
+}
+
+}  // namespace
 
 std::int64_t monotonicNs() {
   timespec ts{};
@@ -202,55 +216,53 @@ CallResult Client::call(std::uint32_t function, const std::vector<Variant>& args
 
   const std::int64_t reply_ns = static_cast<std::int64_t>(config_.reply_timeout_s * 1e9);
   std::int64_t executing_deadline = 0;  // set by the first "still executing" reply
-  for (int attempt = 0; attempt <= config_.retries; ++attempt) {
-    std::string why;
-    if (!sendAll(bytes, &why)) {
+  std::string why;
+  if (!sendAll(bytes, &why)) {
+    close();
+    return fail(CallStatus::Disconnected, what, why);
+  }
+  std::int64_t deadline = monotonicNs() + reply_ns;
+  for (;;) {
+    Packet rep;
+    const ReadOutcome o = readPacket(deadline, &rep, &why);
+    if (o == ReadOutcome::Timeout)
+      return fail(CallStatus::Timeout, what,
+                  executing_deadline == 0 ? "no reply within " + fixedSeconds(config_.reply_timeout_s)
+                                          : "the controller stopped answering while executing");
+    if (o == ReadOutcome::Closed) {
       close();
       return fail(CallStatus::Disconnected, what, why);
     }
-    std::int64_t deadline = monotonicNs() + reply_ns;
-    for (;;) {
-      Packet rep;
-      const ReadOutcome o = readPacket(std::max(deadline, executing_deadline), &rep, &why);
-      if (o == ReadOutcome::Timeout) break;  // re-send
-      if (o == ReadOutcome::Closed) {
-        close();
-        return fail(CallStatus::Disconnected, what, why);
-      }
-      if (o == ReadOutcome::Invalid) {
-        close();
-        return fail(CallStatus::ProtocolError, what, why);
-      }
-      if (rep.serial != req.serial) {
-        ++stale_replies_;  // the late answer to an earlier, re-sent request
-        continue;
-      }
-      if (rep.id == hr::S_EXECUTING) {
-        // The controller is working on it: wait (without re-sending) up to executing_timeout_s.
-        ++executing_replies_;
-        if (executing_deadline == 0)
-          executing_deadline = monotonicNs() + static_cast<std::int64_t>(config_.executing_timeout_s * 1e9);
-        deadline = monotonicNs() + reply_ns;
-        if (monotonicNs() > executing_deadline)
-          return fail(CallStatus::Timeout, what, "still executing after the limit");
-        continue;
-      }
-      CallResult r;
-      r.hresult = rep.id;
-      r.values = std::move(rep.args);
-      if (hr::failed(rep.id)) {
-        r.status = CallStatus::ControllerError;
-        r.error = what + ": " + describeHresult(rep.id);
-      } else {
-        r.status = CallStatus::Ok;
-      }
-      return r;
+    if (o == ReadOutcome::Invalid) {
+      close();
+      return fail(CallStatus::ProtocolError, what, why);
     }
-    if (executing_deadline != 0 && monotonicNs() > executing_deadline) break;
+    if (rep.serial != req.serial) {
+      ++stale_replies_;  // the late answer to an earlier request that timed out
+      continue;
+    }
+    if (rep.id == hr::S_EXECUTING) {
+      // The controller is working on it (ServiceStart's WDT option): each such reply restarts the
+      // reply timeout, up to executing_timeout_s in all.
+      ++executing_replies_;
+      if (executing_deadline == 0)
+        executing_deadline = monotonicNs() + static_cast<std::int64_t>(config_.executing_timeout_s * 1e9);
+      if (monotonicNs() > executing_deadline)
+        return fail(CallStatus::Timeout, what, "still executing after " + fixedSeconds(config_.executing_timeout_s));
+      deadline = monotonicNs() + reply_ns;
+      continue;
+    }
+    CallResult r;
+    r.hresult = rep.id;
+    r.values = std::move(rep.args);
+    if (hr::failed(rep.id)) {
+      r.status = CallStatus::ControllerError;
+      r.error = what + ": " + describeHresult(rep.id);
+    } else {
+      r.status = CallStatus::Ok;
+    }
+    return r;
   }
-  return fail(CallStatus::Timeout, what,
-              "no reply within " + std::to_string(config_.reply_timeout_s) + " s after " +
-                  std::to_string(config_.retries + 1) + " attempts");
 }
 
 // ---- typed calls --------------------------------------------------------------------------------
@@ -263,35 +275,33 @@ CallResult Client::controllerConnect(const std::string& name, const std::string&
               {Variant::bstr(name), Variant::bstr(provider), Variant::bstr(machine), Variant::bstr(option)});
 }
 CallResult Client::controllerDisconnect(std::uint32_t controller) {
-  return call(ID_CONTROLLER_DISCONNECT, {Variant::ui4(controller)});
+  return call(ID_CONTROLLER_DISCONNECT, {handleArg(controller)});
 }
 CallResult Client::controllerGetRobot(std::uint32_t controller, const std::string& name, const std::string& option) {
-  return call(ID_CONTROLLER_GETROBOT, {Variant::ui4(controller), Variant::bstr(name), Variant::bstr(option)});
+  return call(ID_CONTROLLER_GETROBOT, {handleArg(controller), Variant::bstr(name), Variant::bstr(option)});
 }
 CallResult Client::controllerGetVariable(std::uint32_t controller, const std::string& name, const std::string& option) {
-  return call(ID_CONTROLLER_GETVARIABLE, {Variant::ui4(controller), Variant::bstr(name), Variant::bstr(option)}, name);
+  return call(ID_CONTROLLER_GETVARIABLE, {handleArg(controller), Variant::bstr(name), Variant::bstr(option)}, name);
 }
 CallResult Client::controllerExecute(std::uint32_t controller, const std::string& command, const Variant& param) {
-  return call(ID_CONTROLLER_EXECUTE, {Variant::ui4(controller), Variant::bstr(command), param}, command);
+  return call(ID_CONTROLLER_EXECUTE, {handleArg(controller), Variant::bstr(command), param}, command);
 }
 std::vector<Variant> Client::robotExecuteArgs(std::uint32_t robot, const std::string& command, const Variant& param) {
-  return {Variant::ui4(robot), Variant::bstr(command), param};
+  return {handleArg(robot), Variant::bstr(command), param};
 }
 CallResult Client::robotExecute(std::uint32_t robot, const std::string& command, const Variant& param) {
   return call(ID_ROBOT_EXECUTE, robotExecuteArgs(robot, command, param), command);
 }
 CallResult Client::robotHalt(std::uint32_t robot, const std::string& option) {
-  return call(ID_ROBOT_HALT, {Variant::ui4(robot), Variant::bstr(option)});
+  return call(ID_ROBOT_HALT, {handleArg(robot), Variant::bstr(option)});
 }
-CallResult Client::robotRelease(std::uint32_t robot) { return call(ID_ROBOT_RELEASE, {Variant::ui4(robot)}); }
+CallResult Client::robotRelease(std::uint32_t robot) { return call(ID_ROBOT_RELEASE, {handleArg(robot)}); }
 CallResult Client::variableGetValue(std::uint32_t variable) {
-  return call(ID_VARIABLE_GETVALUE, {Variant::ui4(variable)});
+  return call(ID_VARIABLE_GETVALUE, {handleArg(variable)});
 }
 CallResult Client::variablePutValue(std::uint32_t variable, const Variant& value) {
-  return call(ID_VARIABLE_PUTVALUE, {Variant::ui4(variable), value});
+  return call(ID_VARIABLE_PUTVALUE, {handleArg(variable), value});
 }
-CallResult Client::variableRelease(std::uint32_t variable) {
-  return call(ID_VARIABLE_RELEASE, {Variant::ui4(variable)});
-}
+CallResult Client::variableRelease(std::uint32_t variable) { return call(ID_VARIABLE_RELEASE, {handleArg(variable)}); }
 
 }  // namespace depowder::robot::bcap

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 
 #include "depowder/robot/bcap/client.hpp"
@@ -217,6 +218,7 @@ void BcapEmulator::serve(std::shared_ptr<Connection> conn) {
 
 void BcapEmulator::connectionClosed(int connection) {
   std::lock_guard<PiMutex> lock(mutex_);
+  wdt_s_.erase(connection);
   if (arm_owner_ == connection) {
     // A client that vanishes in slave mode stops the arm, as a real controller's watchdog does.
     if (slave_mode_ != 0) stopArmLocked(false);
@@ -344,15 +346,32 @@ Packet BcapEmulator::handle(const Packet& req, int connection, const PartialRepl
   auto newHandle = [&](Handle::Kind kind, const std::string& name) {
     const std::uint32_t h = next_handle_++;
     handles_[h] = Handle{kind, connection, name};
-    return reply(req, hr::S_OK, {Variant::ui4(h)});
+    return reply(req, hr::S_OK, {Variant::i4(static_cast<std::int32_t>(h))});  // as the controller does: VT_I4
   };
 
   if (req.id == bcap::ID_ROBOT_EXECUTE) return robotExecute(req, connection, partial);
 
   std::lock_guard<PiMutex> lock(mutex_);
   switch (req.id) {
-    case bcap::ID_SERVICE_START:
+    case bcap::ID_SERVICE_START: {
+      // The option: comma-separated "key=value" (DENSO's clients send "WDT=400" or ",WDT=400,...").
+      const auto option = req.args.empty() ? std::optional<std::string>("") : str(0);
+      if (!option) return error(req, hr::E_INVALIDARG, "the option must be a string");
+      wdt_s_.erase(connection);
+      std::size_t at = 0;
+      while (at <= option->size()) {
+        const std::size_t end = std::min(option->find(',', at), option->size());
+        const std::string item = option->substr(at, end - at);
+        if (item.size() > 4 && (item.compare(0, 4, "WDT=") == 0 || item.compare(0, 4, "wdt=") == 0)) {
+          const double ms = std::atof(item.c_str() + 4);
+          if (ms > 0) wdt_s_[connection] = ms / 1000;
+        }
+        at = end + 1;
+      }
+      return reply(req, hr::S_OK);
+    }
     case bcap::ID_SERVICE_STOP:
+      wdt_s_.erase(connection);
       return reply(req, hr::S_OK);
 
     case bcap::ID_CONTROLLER_CONNECT: {
@@ -453,9 +472,12 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
   if (*cmd == "CurJnt") return reply(req, hr::S_OK, {Variant::r8Array(jointsDegreesLocked())});
   if (*cmd == "ExtSpeed") return reply(req, hr::S_OK, {Variant::empty()});
   if (*cmd == "slvSendFormat" || *cmd == "slvRecvFormat") {
-    // Only the default formats (pose only) are emulated.
+    // Only the joint formats are emulated: commands of joints alone (send 0), replies of joints alone (2).
     const auto v = firstInt(param);
-    if (v && (*v == 0 || (*cmd == "slvRecvFormat" && *v == 2))) return reply(req, hr::S_OK, {Variant::empty()});
+    if (v && (*v == 0 || (*cmd == "slvRecvFormat" && *v == 2))) {
+      (*cmd == "slvSendFormat" ? stats_.send_format : stats_.recv_format) = static_cast<int>(*v);
+      return reply(req, hr::S_OK, {Variant::empty()});
+    }
     return error(req, hr::E_NOTIMPL, *cmd + " other than the default is not emulated");
   }
   if (*cmd == "TakeArm") {
@@ -479,12 +501,18 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
     }
     if (error_pending_) return error(req, hr::E_CONTROLLER_ERROR, "Motor 1");
     if (!motor_on_) {
-      // Servo power-up takes a while: "still executing" replies until it is done.
+      // Servo power-up takes a while: "still executing" replies every WDT until it is done.
+      const auto wdt = wdt_s_.find(connection);
+      const std::int64_t period_ns = wdt == wdt_s_.end() ? 0 : static_cast<std::int64_t>(wdt->second * 1e9);
       lock.unlock();
       const std::int64_t end = nowNs() + static_cast<std::int64_t>(config_.motor_on_time_s * 1e9);
-      while (nowNs() < end) {
+      for (std::int64_t next = nowNs() + period_ns; nowNs() < end; next += period_ns) {
+        if (period_ns == 0 || next >= end) {
+          sleepUntilNs(end);
+          break;
+        }
+        sleepUntilNs(next);
         if (partial) partial(reply(req, hr::S_EXECUTING));
-        sleepUntilNs(std::min(end, nowNs() + static_cast<std::int64_t>(config_.executing_period_s * 1e9)));
       }
       lock.lock();
       if (error_pending_) return error(req, hr::E_CONTROLLER_ERROR, "Motor 1");

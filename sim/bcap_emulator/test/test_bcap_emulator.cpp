@@ -183,7 +183,7 @@ TEST(BcapEmulator, ClientBytesMatchHandBuiltPackets) {
   RecordingProxy proxy(emu);
   Client c(clientConfig(proxy.port()));
   ASSERT_TRUE(c.connect().ok());
-  ASSERT_TRUE(c.serviceStart("").ok());
+  ASSERT_TRUE(c.serviceStart("WDT=20").ok());  // "still executing" every 20 ms while a call runs
   auto ctrl = c.controllerConnect("", "CaoProv.DENSO.VRC", "localhost", "");
   ASSERT_TRUE(ctrl.ok()) << ctrl.error;
   ASSERT_EQ(ctrl.handle(), 1u);
@@ -208,18 +208,20 @@ TEST(BcapEmulator, ClientBytesMatchHandBuiltPackets) {
 
   const auto reqs = proxy.requests();
   ASSERT_EQ(reqs.size(), 9u);
-  EXPECT_EQ(reqs[0], hex("011e000000010000000100000001000a0000000800010000000000000004"));
+  EXPECT_EQ(reqs[0], hex("012a0000000100000001000000010016000000080001000000"
+                         "0c0000005700440054003d003200300004"));  // ServiceStart("WDT=20")
   EXPECT_EQ(reqs[1], hex("017c000000020000000300000004000a000000080001000000000000002c00000008000100000022000000430061"
                          "006f00500072006f0076002e00440045004e0053004f002e005600520043001c0000000800010000001200000"
                          "06c006f00630061006c0068006f00730074000a0000000800010000000000000004"));
-  // Motor 1 with serial 4, TakeArm [0, 1] with serial 5, slvChangeMode 0x202 with serial 6.
-  EXPECT_EQ(reqs[3], hex("0144000000040000004000000003000a00000013000100000002000000140000000800010000000a0000004d006f"
+  // Motor 1 with serial 4, TakeArm [0, 1] with serial 5, slvChangeMode 0x202 with serial 6; the robot
+  // handle (2) as VT_I4 (3), as DENSO's clients send handles.
+  EXPECT_EQ(reqs[3], hex("0144000000040000004000000003000a00000003000100000002000000140000000800010000000a0000004d006f"
                          "0074006f0072000a0000000300010000000100000004"));
-  EXPECT_EQ(reqs[4], hex("014c000000050000004000000003000a00000013000100000002000000180000000800010000000e000000540061"
+  EXPECT_EQ(reqs[4], hex("014c000000050000004000000003000a00000003000100000002000000180000000800010000000e000000540061"
                          "006b006500410072006d000e000000032002000000000000000100000004"));
-  EXPECT_EQ(reqs[5], hex("0154000000060000004000000003000a00000013000100000002000000240000000800010000001a00000073006c"
+  EXPECT_EQ(reqs[5], hex("0154000000060000004000000003000a00000003000100000002000000240000000800010000001a00000073006c"
                          "0076004300680061006e00670065004d006f00640065000a0000000300010000000202000004"));
-  EXPECT_EQ(reqs[7], hex("012c000000080000004600000002000a000000130001000000020000000a0000000800010000000000000004"));
+  EXPECT_EQ(reqs[7], hex("012c000000080000004600000002000a000000030001000000020000000a0000000800010000000000000004"));
   // Every request decodes and re-encodes to the same bytes.
   for (const auto& r : reqs) {
     const DecodeResult d = decode(r);
@@ -230,19 +232,55 @@ TEST(BcapEmulator, ClientBytesMatchHandBuiltPackets) {
   for (std::size_t i = 0; i < reqs.size(); ++i) EXPECT_EQ(decode(reqs[i]).packet.serial, i + 1);
 }
 
-TEST(BcapEmulator, ResendsAfterTimeoutAndDropsStaleReplies) {
+TEST(BcapEmulator, ATimedOutRequestIsNeverSentAgain) {
+  // Over TCP the controller would run a repeated request twice (DENSO's clients never re-send).
   BcapEmulator emu(testConfig());
   RecordingProxy proxy(emu, /*drop=*/1);
   ClientConfig cc = clientConfig(proxy.port());
   cc.reply_timeout_s = 0.1;
   Client c(cc);
   ASSERT_TRUE(c.connect().ok());
-  const auto r = c.serviceStart("");
-  ASSERT_TRUE(r.ok()) << r.error;
+  const auto lost = c.serviceStart("");
+  EXPECT_EQ(lost.status, CallStatus::Timeout);
+  EXPECT_NE(lost.error.find("Service_Start"), std::string::npos) << lost.error;
+  EXPECT_NE(lost.error.find("no reply within 0.1 s"), std::string::npos) << lost.error;
+  EXPECT_EQ(proxy.requests().size(), 1u);
+  const auto next = c.serviceStart("");  // the connection stays usable, with the next serial
+  ASSERT_TRUE(next.ok()) << next.error;
   const auto reqs = proxy.requests();
   ASSERT_EQ(reqs.size(), 2u);
-  EXPECT_EQ(reqs[0], reqs[1]);  // the re-send repeats the request, same serial
-  EXPECT_EQ(c.nextSerial(), 2);
+  EXPECT_EQ(decode(reqs[0]).packet.serial, 1);
+  EXPECT_EQ(decode(reqs[1]).packet.serial, 2);
+}
+
+// A call longer than the reply timeout: kept alive by "still executing" replies when ServiceStart
+// asked for them (WDT), a timeout without; the late reply is then dropped as stale.
+TEST(BcapEmulator, StillExecutingRepliesOnlyWithAWatchdogOption) {
+  BcapEmulatorConfig cfg = testConfig();
+  cfg.motor_on_time_s = 0.3;
+  for (const bool wdt : {true, false}) {
+    BcapEmulator emu(cfg);
+    ASSERT_TRUE(emu.start());
+    ClientConfig cc = clientConfig(emu.port());
+    cc.reply_timeout_s = 0.1;
+    Client c(cc);
+    ASSERT_TRUE(c.connect().ok());
+    ASSERT_TRUE(c.serviceStart(wdt ? ",WDT=40,InvokeTimeout=180000" : "").ok());
+    const auto ctrl = c.controllerConnect("", "CaoProv.DENSO.VRC", "localhost", "");
+    const auto rob = c.controllerGetRobot(ctrl.handle().value_or(0), "Arm");
+    const auto motor = c.robotExecute(rob.handle().value_or(0), "Motor", Variant::i4(1));
+    if (wdt) {
+      EXPECT_TRUE(motor.ok()) << motor.error;
+      EXPECT_GE(c.executingReplies(), 5);  // 300 ms at 40 ms
+      EXPECT_TRUE(emu.joints().motor_on);
+    } else {
+      EXPECT_EQ(motor.status, CallStatus::Timeout);
+      EXPECT_EQ(c.executingReplies(), 0);
+      sleepUntilNs(monotonicNs() + 300000000);  // the servo comes on; its reply arrives late
+      EXPECT_TRUE(c.robotExecute(rob.handle().value_or(0), "CurJnt").ok());
+      EXPECT_EQ(c.staleReplies(), 1);
+    }
+  }
 }
 
 TEST(BcapEmulator, TimeoutWhenNobodyAnswers) {
@@ -250,13 +288,12 @@ TEST(BcapEmulator, TimeoutWhenNobodyAnswers) {
   RecordingProxy proxy(emu, /*drop=*/100);
   ClientConfig cc = clientConfig(proxy.port());
   cc.reply_timeout_s = 0.05;
-  cc.retries = 2;
   Client c(cc);
   ASSERT_TRUE(c.connect().ok());
   const auto r = c.serviceStart("");
   EXPECT_EQ(r.status, CallStatus::Timeout);
   EXPECT_NE(r.error.find("Service_Start"), std::string::npos) << r.error;
-  EXPECT_EQ(proxy.requests().size(), 3u);
+  EXPECT_EQ(proxy.requests().size(), 1u);
 }
 
 TEST(BcapEmulator, ConnectFailsClearly) {

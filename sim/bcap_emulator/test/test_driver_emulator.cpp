@@ -141,6 +141,10 @@ TEST(DriverEmulator, FollowsAPlanToItsEnd) {
   Rig rig;
   ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0)) << rig.driver().status().reason;
   EXPECT_TRUE(rig.emu().joints().slave_mode);
+  // The slvMove formats were set, not taken from whatever the controller last had: the command is
+  // the joints alone (0), the reply the joints alone (2).
+  EXPECT_EQ(rig.emu().stats().send_format, 0);
+  EXPECT_EQ(rig.emu().stats().recv_format, 2);
   const auto res = rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.1, -0.05, 0.15}}, 0.2));
   ASSERT_TRUE(res.accepted) << res.reason;
   ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));

@@ -18,13 +18,15 @@ namespace depowder::robot {
 
 struct SessionConfig {
   bcap::ClientConfig client;                   ///< controller address, port, timeouts (set-up calls)
+  std::string service_option = "WDT=400";      ///< ServiceStart option: "still executing" every 400 ms
+                                               ///< while a call runs (DENSO's clients' choice)
   std::string controller_name = "";            ///< Controller_Connect name
   std::string provider = "CaoProv.DENSO.VRC";  ///< Controller_Connect provider
   std::string machine = "localhost";           ///< Controller_Connect machine (as seen by the controller)
   std::string options = "";                    ///< Controller_Connect options
   std::string robot_name = "Arm";              ///< Controller_GetRobot name
   int slave_mode = 0x202;                      ///< slvChangeMode: sync-wait (0x200) | joint targets (2)
-  double slave_reply_timeout_s = 0.1;          ///< s, reply timeout of slvMove (no re-send: it would be late)
+  double slave_reply_timeout_s = 0.1;          ///< s, reply timeout of slvMove
   std::string vacuum_variable = "IO24";        ///< controller I/O variable of the vacuum valve
   std::string air_variable = "IO25";           ///< controller I/O variable of the air valve
 };
@@ -50,7 +52,7 @@ class Rc8Session {
   SessionResult readJoints(Joints* q);
   /// ClearError (a pending controller error, e.g. after a late slave command).
   SessionResult clearError();
-  /// Motor on, TakeArm, slave mode.
+  /// Motor on; slave formats (send joints only, receive joints only); TakeArm; slave mode.
   SessionResult enable();
   /// One slave cycle: sends the target (rad), returns the controller's position (rad).
   SessionResult move(const Joints& target, Joints* measured);

@@ -1,5 +1,7 @@
-// A b-CAP client over TCP: one request at a time, serial numbers, reply timeouts with
-// re-sends, "still executing" (0x900) replies waited out, and a clear error for every failure.
+// A b-CAP client over TCP: one request at a time, serial numbers, reply timeouts, "still
+// executing" (0x900) replies waited out, and a clear error for every failure. A request is never
+// sent twice: TCP loses nothing, and the controller would run a repeated request again (DENSO's
+// clients allow no retry over TCP; its server de-duplicates only over UDP).
 #pragma once
 
 #include <cstdint>
@@ -15,8 +17,7 @@ struct ClientConfig {
   std::string host = "127.0.0.1";   ///< controller address (IPv4 dotted quad or host name)
   int port = 5007;                  ///< b-CAP TCP port
   double connect_timeout_s = 1.0;   ///< s, TCP connect
-  double reply_timeout_s = 1.0;     ///< s, wait for a reply before re-sending the request
-  int retries = 2;                  ///< re-sends after a reply timeout (same serial)
+  double reply_timeout_s = 1.0;     ///< s, wait for a reply (or a "still executing" one) before giving up
   double executing_timeout_s = 20;  ///< s, total wait while the controller keeps answering 0x900
 };
 
@@ -24,7 +25,7 @@ enum class CallStatus {
   Ok,
   NotConnected,     ///< connect() was not called or the connection was closed
   ConnectFailed,    ///< TCP connect refused / timed out
-  Timeout,          ///< no reply after every re-send
+  Timeout,          ///< no reply within the reply timeout
   Disconnected,     ///< the controller closed the connection or a socket error occurred
   ProtocolError,    ///< the reply was not a valid b-CAP packet (the connection is closed)
   ControllerError,  ///< the controller answered with a failure HRESULT (see hresult)
@@ -54,11 +55,8 @@ class Client {
   void close();
   bool connected() const { return fd_ >= 0; }
   const ClientConfig& config() const { return config_; }
-  /// Changes the reply timeout and re-sends (the slave loop uses a short timeout and none).
-  void setTimeouts(double reply_timeout_s, int retries) {
-    config_.reply_timeout_s = reply_timeout_s;
-    config_.retries = retries;
-  }
+  /// Changes the reply timeout (the slave loop uses a short one).
+  void setReplyTimeout(double reply_timeout_s) { config_.reply_timeout_s = reply_timeout_s; }
 
   /// Sends one request and waits for its reply. `what` names the call in errors (e.g.
   /// "slvMove"); the function name is used when empty.
@@ -66,12 +64,15 @@ class Client {
 
   /// The serial number the next request will carry (1..0xFFFF, never 0).
   std::uint16_t nextSerial() const { return serial_; }
-  /// Replies discarded because their serial did not match (late replies after a re-send).
+  /// Replies discarded because their serial did not match (late replies to timed-out requests).
   std::int64_t staleReplies() const { return stale_replies_; }
   /// "Still executing" replies seen.
   std::int64_t executingReplies() const { return executing_replies_; }
 
-  // Typed calls of the session in REFERENCE.md. Handles go out as VT_UI4 (as DENSO's client does).
+  // Typed calls of the session in REFERENCE.md. Handles go out as VT_I4, as every DENSO client
+  // sends them (and as the controller returns them).
+  /// `option`: e.g. "WDT=400", the controller then answers "still executing" every 400 ms while a
+  /// call runs (without it, DENSO's server sends none and a long call looks like a lost controller).
   CallResult serviceStart(const std::string& option = "");
   CallResult serviceStop();
   CallResult controllerConnect(const std::string& name, const std::string& provider, const std::string& machine,

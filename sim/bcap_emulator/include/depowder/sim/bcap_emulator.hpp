@@ -41,8 +41,9 @@ struct BcapEmulatorConfig {
   double cycle_s = 0.008;                               ///< s, slave-mode control cycle (RC8: 8 ms)
   double late_limit_s = 0.016;           ///< s, sync mode: a slvMove this long after the previous is an error
   double speed_margin = 1.5;             ///< a cycle may move a joint by qd_max * cycle_s * speed_margin
-  double motor_on_time_s = 0.05;         ///< s, "Motor 1" answers "still executing" for this long
-  double executing_period_s = 0.02;      ///< s, between "still executing" replies
+  double motor_on_time_s = 0.05;         ///< s, "Motor 1" takes this long (the servo powering up); on a
+                                         ///< connection whose ServiceStart asked for "WDT=ms", a "still
+                                         ///< executing" reply goes out every WDT meanwhile, as DENSO's server does
   std::string vacuum_variable = "IO24";  ///< controller I/O variable that switches the vacuum
   std::string air_variable = "IO25";     ///< controller I/O variable that switches the air blast
   int max_connections = 8;               ///< further connections are closed at once
@@ -72,6 +73,8 @@ struct EmulatorStats {
   std::int64_t limit_errors = 0;   ///< targets outside the joint limits
   std::int64_t speed_errors = 0;   ///< targets too far for one cycle
   std::int64_t halts = 0;          ///< Robot_Halt calls
+  int send_format = -1;            ///< the last slvSendFormat set (-1: never; the controller keeps it)
+  int recv_format = -1;            ///< the last slvRecvFormat set (-1: never)
   std::string last_error;          ///< description of the last error reply
   std::string last_refusal;        ///< ...and of the last late / limit / speed error (the arm's refusals)
 };
@@ -112,7 +115,8 @@ class BcapEmulator {
 
   /// Handles one request as the server does (exposed for tests). `connection` identifies the
   /// caller for arm ownership. May block until the next cycle for a sync-mode slvMove, or for
-  /// motor_on_time_s for "Motor 1", during which `partial` gets the "still executing" replies.
+  /// motor_on_time_s for "Motor 1", during which `partial` gets the "still executing" replies
+  /// (every WDT of the connection's ServiceStart option; none without one).
   using PartialReply = std::function<void(const robot::bcap::Packet&)>;
   robot::bcap::Packet handle(const robot::bcap::Packet& request, int connection, const PartialReply& partial = {});
   /// Called when a connection ends: releases its arm (stopping slave mode) and its handles.
@@ -149,6 +153,7 @@ class BcapEmulator {
 
   mutable PiMutex mutex_;  // priority inheritance: the connection threads never wait behind the simulator's step
   std::map<std::uint32_t, Handle> handles_;
+  std::map<int, double> wdt_s_;  ///< per connection, ServiceStart's "WDT=ms" (s); absent: none
   std::uint32_t next_handle_ = 1;
   robot::Joints q_{};
   robot::Joints qd_{};
