@@ -123,6 +123,15 @@ SessionResult Rc8Session::readJoints(Joints* q) {
 }
 
 SessionResult Rc8Session::clearError() {
+  // As DENSO's driver recovers (ChangeModeWithClearError): out of slave mode and the arm given
+  // back before ClearError, which is not for slave mode. Their own errors are of no interest (an
+  // error that stopped the arm has ended slave mode already); enable() takes the arm again.
+  if (arm_taken_) {
+    act_.setReplyTimeout(cfg_.client.reply_timeout_s);
+    act_.robotExecute(robot_, "slvChangeMode", Variant::i4(0));
+    act_.robotExecute(robot_, "GiveArm");
+    slave_ = arm_taken_ = false;
+  }
   return SessionResult::from(act_.controllerExecute(controller_, "ClearError"));
 }
 

@@ -50,7 +50,8 @@ class Rc8Session {
   SessionResult open();
   /// Current joint positions (CurJnt), rad.
   SessionResult readJoints(Joints* q);
-  /// ClearError (a pending controller error, e.g. after a late slave command).
+  /// ClearError (a pending controller error, e.g. after a late slave command), after leaving slave
+  /// mode and giving the arm back if it was taken.
   SessionResult clearError();
   /// Motor on; slave formats (send joints only, receive joints only); TakeArm; slave mode.
   SessionResult enable();
