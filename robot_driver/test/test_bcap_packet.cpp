@@ -118,6 +118,30 @@ TEST(BcapPacket, TypedAccessors) {
   EXPECT_EQ(toUtf8(toUtf16("b-CAP \xf0\x9f\xa4\x96")), "b-CAP \xf0\x9f\xa4\x96");  // surrogate pair
 }
 
+// The VARIANT types no reply of the session carries but a controller may send (DENSO's clients
+// decode them): UI2 65535, I8 -2, UI8 2^64 - 1, CY 12.5 and DATE 45000.5, hand-built.
+TEST(BcapPacket, DecodesTheOtherNumberTypes) {
+  const auto bytes =
+      hex("01640000000300000000000000050008000000120001000000ffff0e000000140001000000feffffffffffffff0e0000001500"
+          "01000000ffffffffffffffff0e00000006000100000048e80100000000000e0000000700010000000000000010f9e54004");
+  const DecodeResult d = decode(bytes);
+  ASSERT_EQ(d.status, DecodeStatus::Ok) << d.error;
+  ASSERT_EQ(d.packet.args.size(), 5u);
+  const auto& a = d.packet.args;
+  EXPECT_EQ(a[0].type, VT_UI2);
+  EXPECT_EQ(a[0].asInt(), 65535);
+  EXPECT_EQ(a[1].type, VT_I8);
+  EXPECT_EQ(a[1].asInt(), -2);
+  EXPECT_EQ(a[2].type, VT_UI8);
+  EXPECT_EQ(a[2].ints[0], -1);  // its 64 bits
+  EXPECT_EQ(a[3].type, VT_CY);
+  EXPECT_EQ(a[3].asReal(), 12.5);
+  EXPECT_FALSE(a[3].asInt().has_value());  // not a whole number
+  EXPECT_EQ(a[4].type, VT_DATE);
+  EXPECT_EQ(a[4].asReal(), 45000.5);
+  EXPECT_EQ(encode(d.packet), bytes);
+}
+
 TEST(BcapPacket, IncompleteAndInvalid) {
   const auto good = hex(cases()[2].bytes);
   // Every proper prefix is incomplete, never invalid or ok.

@@ -33,6 +33,7 @@ struct Writer {
 std::size_t scalarSize(std::uint16_t type) {
   switch (type) {
     case VT_I2:
+    case VT_UI2:
     case VT_BOOL:
       return 2;
     case VT_I4:
@@ -41,6 +42,10 @@ std::size_t scalarSize(std::uint16_t type) {
     case VT_ERROR:
       return 4;
     case VT_R8:
+    case VT_DATE:
+    case VT_I8:
+    case VT_UI8:
+    case VT_CY:
       return 8;
     case VT_UI1:
       return 1;
@@ -50,8 +55,10 @@ std::size_t scalarSize(std::uint16_t type) {
 }
 
 bool integerType(std::uint16_t t) {
-  return t == VT_I2 || t == VT_I4 || t == VT_UI1 || t == VT_UI4 || t == VT_BOOL || t == VT_ERROR;
+  return t == VT_I2 || t == VT_I4 || t == VT_UI1 || t == VT_UI4 || t == VT_BOOL || t == VT_ERROR || t == VT_UI2 ||
+         t == VT_I8 || t == VT_UI8 || t == VT_CY;
 }
+bool realType(std::uint16_t t) { return t == VT_R4 || t == VT_R8 || t == VT_DATE; }
 
 void writeScalarNumber(Writer& w, std::uint16_t type, std::int64_t i, double r) {
   switch (type) {
@@ -66,6 +73,14 @@ void writeScalarNumber(Writer& w, std::uint16_t type, std::int64_t i, double r) 
     case VT_UI4:
       w.u32(static_cast<std::uint32_t>(i));
       break;
+    case VT_UI2:
+      w.u16(static_cast<std::uint16_t>(i));
+      break;
+    case VT_I8:
+    case VT_UI8:
+    case VT_CY:
+      w.u64(static_cast<std::uint64_t>(i));
+      break;
     case VT_UI1:
       w.u8(static_cast<std::uint8_t>(i));
       break;
@@ -76,7 +91,8 @@ void writeScalarNumber(Writer& w, std::uint16_t type, std::int64_t i, double r) 
       w.u32(b);
       break;
     }
-    case VT_R8: {
+    case VT_R8:
+    case VT_DATE: {
       std::uint64_t b;
       std::memcpy(&b, &r, 8);
       w.u64(b);
@@ -115,7 +131,7 @@ void writeVariant(Writer& w, const Variant& v, int depth) {
     for (std::int64_t i : v.ints) writeScalarNumber(w, v.type, i, 0);
     return;
   }
-  if (v.type == VT_R4 || v.type == VT_R8) {
+  if (realType(v.type)) {
     if (v.reals.size() != n || n == 0) throw std::invalid_argument("b-CAP: real VARIANT without a value");
     for (double r : v.reals) writeScalarNumber(w, v.type, 0, r);
     return;
@@ -208,7 +224,7 @@ bool readVariant(Reader& r, Variant& v, int depth) {
   const std::size_t size = scalarSize(v.type);
   if (size == 0) return r.fail("unsupported VARIANT type " + std::to_string(v.type));
   if (count > left / size) return r.fail("array count beyond the packet");
-  if (v.type == VT_R4 || v.type == VT_R8) {
+  if (realType(v.type)) {
     v.reals.reserve(count);
     for (std::uint32_t k = 0; k < count; ++k) {
       if (v.type == VT_R4) {
@@ -237,6 +253,14 @@ bool readVariant(Reader& r, Variant& v, int depth) {
           break;
         case VT_UI4:
           v.ints.push_back(r.u32());
+          break;
+        case VT_UI2:
+          v.ints.push_back(r.u16());
+          break;
+        case VT_I8:
+        case VT_UI8:
+        case VT_CY:
+          v.ints.push_back(static_cast<std::int64_t>(r.u64()));
           break;
         case VT_UI1:
           v.ints.push_back(r.p[r.at++]);
@@ -345,6 +369,7 @@ std::uint32_t Variant::count() const {
       return static_cast<std::uint32_t>(items.size());
     case VT_R4:
     case VT_R8:
+    case VT_DATE:
       return static_cast<std::uint32_t>(reals.size());
     default:
       return static_cast<std::uint32_t>(ints.size());
@@ -352,10 +377,12 @@ std::uint32_t Variant::count() const {
 }
 
 bool Variant::isInteger() const { return integerType(type); }
-bool Variant::isReal() const { return type == VT_R4 || type == VT_R8; }
+bool Variant::isReal() const { return realType(type); }
 
 std::optional<std::int64_t> Variant::asInt() const {
   if (array) return std::nullopt;
+  if (type == VT_CY && ints.size() == 1)
+    return ints[0] % 10000 == 0 ? std::optional<std::int64_t>(ints[0] / 10000) : std::nullopt;
   if (isInteger() && ints.size() == 1) return ints[0];
   if (isReal() && reals.size() == 1 && std::isfinite(reals[0]) && reals[0] == std::floor(reals[0]) &&
       std::abs(reals[0]) < 9e15)
@@ -365,7 +392,7 @@ std::optional<std::int64_t> Variant::asInt() const {
 
 std::optional<double> Variant::asReal() const {
   if (array) return std::nullopt;
-  if (isInteger() && ints.size() == 1) return static_cast<double>(ints[0]);
+  if (isInteger() && ints.size() == 1) return static_cast<double>(ints[0]) / (type == VT_CY ? 1e4 : 1);
   if (isReal() && reals.size() == 1) return reals[0];
   return std::nullopt;
 }
@@ -377,12 +404,17 @@ std::optional<std::string> Variant::asString() const {
 
 std::optional<std::vector<double>> Variant::asReals() const {
   if (isReal()) return reals;
-  if (isInteger()) return std::vector<double>(ints.begin(), ints.end());
+  if (isInteger()) {
+    std::vector<double> out(ints.begin(), ints.end());
+    if (type == VT_CY)
+      for (double& x : out) x /= 1e4;
+    return out;
+  }
   return std::nullopt;
 }
 
 std::optional<std::vector<std::int64_t>> Variant::asInts() const {
-  if (isInteger()) return ints;
+  if (isInteger() && type != VT_CY) return ints;
   return std::nullopt;
 }
 

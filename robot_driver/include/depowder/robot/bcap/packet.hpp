@@ -24,12 +24,17 @@ enum VarType : std::uint16_t {
   VT_I4 = 3,
   VT_R4 = 4,
   VT_R8 = 5,
+  VT_CY = 6,    ///< currency: a 64-bit count of 1/10000
+  VT_DATE = 7,  ///< an R8: days since 1899-12-30
   VT_BSTR = 8,
   VT_ERROR = 10,
   VT_BOOL = 11,
   VT_VARIANT = 12,
   VT_UI1 = 17,
+  VT_UI2 = 18,
   VT_UI4 = 19,
+  VT_I8 = 20,
+  VT_UI8 = 21,  ///< kept as its 64 bits in Variant::ints (so decode -> encode is byte-exact)
   VT_ARRAY = 0x2000,
 };
 
@@ -78,8 +83,9 @@ constexpr std::uint32_t E_CONTROLLER_ERROR = 0x84204079;  ///< an error is pendi
 inline bool failed(std::uint32_t h) { return (h & 0x80000000u) != 0; }
 }  // namespace hr
 
-/// One VARIANT. Integer types (I2, I4, UI1, UI4, BOOL, ERROR) keep their values in `ints`
-/// (BOOL as the raw 16-bit value: -1 true, 0 false), R4 / R8 in `reals`, BSTR in `strings`
+/// One VARIANT. Integer types (I2, I4, I8, UI1, UI2, UI4, UI8, CY, BOOL, ERROR) keep their values in
+/// `ints` (BOOL as the raw 16-bit value: -1 true, 0 false; CY as its count of 1/10000, which asReal
+/// scales), R4 / R8 / DATE in `reals`, BSTR in `strings`
 /// (UTF-16 code units, so decode -> encode is byte-exact), VARIANT arrays in `items`.
 struct Variant {
   std::uint16_t type = VT_EMPTY;  ///< base type, without VT_ARRAY
@@ -106,8 +112,8 @@ struct Variant {
 
   /// Element count on the wire (1 for a scalar, also for EMPTY).
   std::uint32_t count() const;
-  bool isInteger() const;  ///< I2, I4, UI1, UI4, BOOL or ERROR (scalar or array)
-  bool isReal() const;     ///< R4 or R8
+  bool isInteger() const;  ///< an integer type, CY included (scalar or array)
+  bool isReal() const;     ///< R4, R8 or DATE
 
   /// A scalar integer-like value (integer types, or an integral R4/R8); nullopt otherwise.
   std::optional<std::int64_t> asInt() const;
