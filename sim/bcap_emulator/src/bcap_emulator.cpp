@@ -505,15 +505,13 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
       const auto wdt = wdt_s_.find(connection);
       const std::int64_t period_ns = wdt == wdt_s_.end() ? 0 : static_cast<std::int64_t>(wdt->second * 1e9);
       lock.unlock();
-      const std::int64_t end = nowNs() + static_cast<std::int64_t>(config_.motor_on_time_s * 1e9);
-      for (std::int64_t next = nowNs() + period_ns; nowNs() < end; next += period_ns) {
-        if (period_ns == 0 || next >= end) {
-          sleepUntilNs(end);
-          break;
+      const std::int64_t start = nowNs(), end = start + static_cast<std::int64_t>(config_.motor_on_time_s * 1e9);
+      if (period_ns > 0)
+        for (std::int64_t next = start + period_ns; next < end; next += period_ns) {
+          sleepUntilNs(next);
+          if (partial) partial(reply(req, hr::S_EXECUTING));
         }
-        sleepUntilNs(next);
-        if (partial) partial(reply(req, hr::S_EXECUTING));
-      }
+      sleepUntilNs(end);
       lock.lock();
       if (error_pending_) return error(req, hr::E_CONTROLLER_ERROR, "Motor 1");
       motor_on_ = true;
