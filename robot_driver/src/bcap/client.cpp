@@ -18,9 +18,6 @@ namespace depowder::robot::bcap {
 
 namespace {
 
-// A handle as DENSO's clients send it: VT_I4.
-Variant handleArg(std::uint32_t h) { return Variant::i4(static_cast<std::int32_t>(h)); }
-
 std::string fixedSeconds(double s) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g s", s);
@@ -275,33 +272,36 @@ CallResult Client::controllerConnect(const std::string& name, const std::string&
               {Variant::bstr(name), Variant::bstr(provider), Variant::bstr(machine), Variant::bstr(option)});
 }
 CallResult Client::controllerDisconnect(std::uint32_t controller) {
-  return call(ID_CONTROLLER_DISCONNECT, {handleArg(controller)});
+  return call(ID_CONTROLLER_DISCONNECT, {Variant::handle(controller)});
 }
 CallResult Client::controllerGetRobot(std::uint32_t controller, const std::string& name, const std::string& option) {
-  return call(ID_CONTROLLER_GETROBOT, {handleArg(controller), Variant::bstr(name), Variant::bstr(option)});
+  return call(ID_CONTROLLER_GETROBOT, {Variant::handle(controller), Variant::bstr(name), Variant::bstr(option)});
 }
 CallResult Client::controllerGetVariable(std::uint32_t controller, const std::string& name, const std::string& option) {
-  return call(ID_CONTROLLER_GETVARIABLE, {handleArg(controller), Variant::bstr(name), Variant::bstr(option)}, name);
+  return call(ID_CONTROLLER_GETVARIABLE, {Variant::handle(controller), Variant::bstr(name), Variant::bstr(option)},
+              name);
 }
 CallResult Client::controllerExecute(std::uint32_t controller, const std::string& command, const Variant& param) {
-  return call(ID_CONTROLLER_EXECUTE, {handleArg(controller), Variant::bstr(command), param}, command);
+  return call(ID_CONTROLLER_EXECUTE, {Variant::handle(controller), Variant::bstr(command), param}, command);
 }
 std::vector<Variant> Client::robotExecuteArgs(std::uint32_t robot, const std::string& command, const Variant& param) {
-  return {handleArg(robot), Variant::bstr(command), param};
+  return {Variant::handle(robot), Variant::bstr(command), param};
 }
 CallResult Client::robotExecute(std::uint32_t robot, const std::string& command, const Variant& param) {
   return call(ID_ROBOT_EXECUTE, robotExecuteArgs(robot, command, param), command);
 }
 CallResult Client::robotHalt(std::uint32_t robot, const std::string& option) {
-  return call(ID_ROBOT_HALT, {handleArg(robot), Variant::bstr(option)});
+  return call(ID_ROBOT_HALT, {Variant::handle(robot), Variant::bstr(option)});
 }
-CallResult Client::robotRelease(std::uint32_t robot) { return call(ID_ROBOT_RELEASE, {handleArg(robot)}); }
+CallResult Client::robotRelease(std::uint32_t robot) { return call(ID_ROBOT_RELEASE, {Variant::handle(robot)}); }
 CallResult Client::variableGetValue(std::uint32_t variable) {
-  return call(ID_VARIABLE_GETVALUE, {handleArg(variable)});
+  return call(ID_VARIABLE_GETVALUE, {Variant::handle(variable)});
 }
 CallResult Client::variablePutValue(std::uint32_t variable, const Variant& value) {
-  return call(ID_VARIABLE_PUTVALUE, {handleArg(variable), value});
+  return call(ID_VARIABLE_PUTVALUE, {Variant::handle(variable), value});
 }
-CallResult Client::variableRelease(std::uint32_t variable) { return call(ID_VARIABLE_RELEASE, {handleArg(variable)}); }
+CallResult Client::variableRelease(std::uint32_t variable) {
+  return call(ID_VARIABLE_RELEASE, {Variant::handle(variable)});
+}
 
 }  // namespace depowder::robot::bcap

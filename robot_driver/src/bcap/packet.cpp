@@ -276,6 +276,7 @@ bool readVariant(Reader& r, Variant& v, int depth) {
 // ---- Variant ----------------------------------------------------------------------------------
 
 Variant Variant::empty() { return Variant(); }
+Variant Variant::handle(std::uint32_t h) { return i4(static_cast<std::int32_t>(h)); }
 Variant Variant::i2(std::int16_t v) {
   Variant x;
   x.type = VT_I2;

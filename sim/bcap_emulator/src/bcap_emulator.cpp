@@ -346,7 +346,7 @@ Packet BcapEmulator::handle(const Packet& req, int connection, const PartialRepl
   auto newHandle = [&](Handle::Kind kind, const std::string& name) {
     const std::uint32_t h = next_handle_++;
     handles_[h] = Handle{kind, connection, name};
-    return reply(req, hr::S_OK, {Variant::i4(static_cast<std::int32_t>(h))});  // as the controller does: VT_I4
+    return reply(req, hr::S_OK, {Variant::handle(h)});
   };
 
   if (req.id == bcap::ID_ROBOT_EXECUTE) return robotExecute(req, connection, partial);

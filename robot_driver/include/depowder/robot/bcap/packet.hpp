@@ -100,6 +100,8 @@ struct Variant {
   static Variant i4(std::int32_t v);
   static Variant ui1(std::uint8_t v);
   static Variant ui4(std::uint32_t v);
+  /// A handle (controller, robot, variable) as DENSO's clients send it and the controller returns it: VT_I4.
+  static Variant handle(std::uint32_t h);
   static Variant r4(float v);
   static Variant r8(double v);
   static Variant boolean(bool v);
