@@ -62,10 +62,11 @@ const char* kUsage =
     "  --probe N              moving: every N frames, a tracker without the filter started at the true pose fits\n"
     "                         that frame's scan 4 times; how far it ends from the truth shows how well the scan\n"
     "                         alone pins the part (printed, and probe_* in the JSON)\n"
-    "  --motion-oracle full|planar|tip  moving: a diagnostic no cell has: each tracker is told the part's true\n"
-    "                         motion since the last frame (planar: only its turn about the vertical and its\n"
-    "                         slide; tip: only the rest, its tip and rise or sink), which bounds what a motion\n"
-    "                         model could add\n"
+    "  --motion-oracle full|planar|tip|physics  moving: a diagnostic no cell has: each tracker is told the\n"
+    "                         part's true motion since the last frame (planar: only its turn about the vertical\n"
+    "                         and its slide; tip: only the rest, its tip and rise or sink), which bounds what a\n"
+    "                         motion model could add; physics: the motion the world's own physics and powder\n"
+    "                         give the tracker's last estimate under the frame's nozzle path\n"
     "  --oracle-fraction F    moving: the motion told is F x the true one (turn angle and slide; default 1)\n"
     "  --push-offset F        moving, report: the push line passes the part's centre sideways by up to F x its\n"
     "                         xy diagonal (seeded; default 0.25): larger turns the part more\n"
@@ -110,7 +111,7 @@ struct Args {
   double duration = 0;
   bool quiet = false, no_nozzle = false, self_filter = false;
   int probe = 0;                                     ///< moving: --probe N
-  std::string motion_oracle;                         ///< moving: --motion-oracle full|planar|tip
+  std::string motion_oracle;                         ///< moving: --motion-oracle full|planar|tip|physics
   double oracle_fraction = -1;                       ///< moving: --oracle-fraction F (< 0: not given)
   double push_offset = -1;                           ///< moving: --push-offset F (< 0: the default)
   double push_speed = -1;                            ///< moving: --push-speed V (< 0: the default)

@@ -33,9 +33,13 @@ Pose perturbed(const Pose& T, double max_trans, double max_rot, std::mt19937& rn
   return out;
 }
 
+int frameSteps(const EvalCell& cell) { return std::max(1, static_cast<int>(std::lround(cell.step_hz / cell.fps))); }
+
+double frameStep(const EvalCell& cell) { return 1.0 / (cell.fps * frameSteps(cell)); }
+
 void advanceFrame(sim::World& world, const EvalCell& cell, const std::function<void(double t)>& before_step) {
-  const int steps = std::max(1, static_cast<int>(std::lround(cell.step_hz / cell.fps)));
-  const double dt = 1.0 / (cell.fps * steps);
+  const int steps = frameSteps(cell);
+  const double dt = frameStep(cell);
   for (int s = 0; s < steps; ++s) {
     if (before_step) before_step(world.time() + dt);
     world.step(dt);

@@ -3,6 +3,7 @@
 // visibility of 40 to 60 %; a trial succeeds if the final error is within 15 deg and 15 mm.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
 #include <stdexcept>
 
@@ -89,6 +90,11 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       }
       sim::PushScript push(world, spec);
       const double eta0 = world.partTruth(0).eta;
+      // --motion-oracle physics: a second world, the same part, where each frame replays from the estimate.
+      std::unique_ptr<sim::World> shadow;
+      if (oracle_part == MotionPart::kPhysics)
+        shadow = std::make_unique<sim::World>(
+            cell.sim, cell.box, std::vector<sim::PartSpec>{{part.name, part.mesh, T0, 1000}}, cell.cameras, seed);
 
       std::vector<tracker::PartTracker> trackers;
       for (tracker::Method method : methods)
@@ -106,8 +112,10 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
           break;
         }
         sim::ArmState arm;
+        std::vector<NozzleStep> nozzle_steps;
         advanceFrame(world, cell, [&](double t) {
           arm = push.update(t);
+          nozzle_steps.push_back({arm.nozzle_present, arm.T_cell_nozzle, arm.tool});
           if (arm.nozzle_present)
             world.setNozzle(arm.T_cell_nozzle, arm.tool);
           else
@@ -117,9 +125,14 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         const Cloud scan = source.capture(world, filtered ? &arm.T_cell_nozzle : nullptr);
         const sim::PartTruth truth = world.partTruth(0);
         min_eta = std::min(min_eta, truth.eta);
-        if (!o.motion_oracle.empty()) {
-          const Pose delta =
-              oracleMotion(T_true_last, truth.T_cell_part, oracle_part, o.motion_oracle_fraction);
+        if (shadow) {
+          for (std::size_t m = 0; m < methods.size(); ++m) {
+            const Pose T_next =
+                physicsMotion(*shadow, world.powder(), last[m], nozzle_steps, frameStep(cell)) * last[m];
+            trackers[m].predictMotion(oracleMotion(last[m], T_next, MotionPart::kFull, o.motion_oracle_fraction));
+          }
+        } else if (!o.motion_oracle.empty()) {
+          const Pose delta = oracleMotion(T_true_last, truth.T_cell_part, oracle_part, o.motion_oracle_fraction);
           for (tracker::PartTracker& t : trackers) t.predictMotion(delta);
         }
         T_true_last = truth.T_cell_part;
@@ -251,6 +264,20 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   }
   doc.set("rows", std::move(rows));
   return doc;
+}
+
+Pose physicsMotion(sim::World& shadow, const sim::PowderField& powder, const Pose& T_from,
+                   const std::vector<NozzleStep>& steps, double dt) {
+  shadow.powder() = powder;
+  shadow.setPartPose(0, T_from);  // at rest: the frame's motion is the nozzle's doing
+  for (const NozzleStep& s : steps) {
+    if (s.present)
+      shadow.setNozzle(s.T_cell_nozzle, s.tool);
+    else
+      shadow.removeNozzle();
+    shadow.step(dt);
+  }
+  return shadow.partTruth(0).T_cell_part * T_from.inverse();
 }
 
 Pose oracleMotion(const Pose& T_a, const Pose& T_b, MotionPart part, double fraction) {

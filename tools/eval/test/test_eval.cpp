@@ -19,6 +19,9 @@
 #include "depowder/node/yaml.hpp"
 #include "depowder/parts.hpp"
 #include "depowder/stats.hpp"
+#ifdef DEPOWDER_EVAL_MOVING
+#include "depowder/sim/push.hpp"
+#endif
 
 using namespace depowder;
 using namespace depowder::eval;
@@ -608,6 +611,51 @@ TEST(EvalMoving, OracleMotionIsTheTrueMotionOrItsPlanarOrTipPart) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("'tilt'"), std::string::npos) << e.what();
   }
+}
+
+// --motion-oracle physics: the shadow world replays a frame from the part's pose at rest. From the
+// true pose, before the first frame that moves a buried cube, it gives the world's own motion; with
+// no nozzle in the frame, none.
+TEST(EvalMoving, PhysicsMotionFromTheTruthIsTheWorldsOwn) {
+  EvalCell cell = testCell();
+  cell.sim.physics.enabled = true;
+  const Mesh cube = defaultPart("cube").mesh;
+  const Pose T0 = placePart(cube, 0.3, {0.0, 0.0}, 0.03);
+  sim::World world(cell.sim, cell.box, {{"cube", cube, T0, 1000}}, cell.cameras, 3);
+  world.digToVisibility(0, 0.5);
+  sim::World shadow(cell.sim, cell.box, {{"cube", cube, T0, 1000}}, cell.cameras, 3);
+  sim::PushScript push(world, sim::pushFrom(world, 0, 180, 0.5, 0.0));
+  const double dt = 1.0 / 120;
+  const std::vector<NozzleStep> none(4);
+  const Pose still = physicsMotion(shadow, world.powder(), T0, none, dt);
+  EXPECT_LT(still.translation().norm(), 1e-7);  // a buried part stays put
+  EXPECT_LT(rotationAngle(still.linear(), Eigen::Matrix3d::Identity()), 1e-6);
+  bool moved = false;
+  for (int frame = 0; frame < 300 && !moved; ++frame) {
+    const sim::PowderField powder = world.powder();
+    const Pose T_before = world.partTruth(0).T_cell_part;
+    std::vector<NozzleStep> steps;
+    for (int k = 0; k < 4; ++k) {
+      const sim::ArmState a = push.update(world.time() + dt);
+      steps.push_back({a.nozzle_present, a.T_cell_nozzle, a.tool});
+      if (a.nozzle_present)
+        world.setNozzle(a.T_cell_nozzle, a.tool);
+      else
+        world.removeNozzle();
+      world.step(dt);
+    }
+    const Pose T_after = world.partTruth(0).T_cell_part;
+    moved = (T_after.translation() - T_before.translation()).norm() > 1e-5;
+    if (!moved) continue;
+    const Pose predicted = physicsMotion(shadow, powder, T_before, steps, dt) * T_before;
+    std::printf("frame %d: moved %.3g m, predicted %.3g m off\n", frame,
+                (T_after.translation() - T_before.translation()).norm(),
+                (predicted.translation() - T_after.translation()).norm());
+    EXPECT_LT((predicted.translation() - T_after.translation()).norm(), 1e-6)
+        << "moved " << (T_after.translation() - T_before.translation()).norm() << " m";
+    EXPECT_LT(rotationAngle(predicted.linear(), T_after.linear()), 1e-5);
+  }
+  EXPECT_TRUE(moved) << "the push never moved the cube";
 }
 
 TEST(EvalMoving, ShortPushShapeAndBounds) {

@@ -150,7 +150,10 @@ struct MovingOptions {
   /// the nozzle's path could predict at best) or only the rest, its tip and its rise or sink
   /// ("tip": what a model of tipping alone could), scaled by motion_oracle_fraction (a model that
   /// predicts part of the motion). A push lost then is lost by the fits and the filter.
-  std::string motion_oracle;          ///< "" (none), "full", "planar" or "tip"
+  /// "physics" tells the motion the world's own physics gives the tracker's last estimate over the
+  /// frame (physicsMotion): the bound of a pushing model run from the estimate, with the world's
+  /// exact physics and powder.
+  std::string motion_oracle;          ///< "" (none), "full", "planar", "tip" or "physics"
   double motion_oracle_fraction = 1;  ///< of the true turn angle and slide
   double success_rot_deg = 15;        ///< Table II: final error within 15 deg...
   double success_trans = 0.015;       ///< ... and 15 mm
@@ -213,22 +216,37 @@ MovingResult runMoving(const EvalCell& cell, const std::vector<EvalPart>& parts,
 Json toJson(const MovingResult& result, const MovingOptions& options);
 /// Which part of a motion MovingOptions::motion_oracle tells.
 enum class MotionPart {
-  kFull,    ///< all of it
-  kPlanar,  ///< its turn about the vertical (turnAboutVertical) and its horizontal slide
-  kTip,     ///< the rest: the rotation that follows the planar turn, and the rise or sink
+  kFull,     ///< all of it
+  kPlanar,   ///< its turn about the vertical (turnAboutVertical) and its horizontal slide
+  kTip,      ///< the rest: the rotation that follows the planar turn, and the rise or sink
+  kPhysics,  ///< not the true motion: the world's physics run from the estimate (physicsMotion)
 };
-/// The MotionPart a motion_oracle names: "full", "planar" or "tip". Throws std::invalid_argument
-/// naming any other.
+/// The MotionPart a motion_oracle names: "full", "planar", "tip" or "physics". Throws
+/// std::invalid_argument naming any other.
 inline MotionPart motionPart(const std::string& name) {
   if (name == "full") return MotionPart::kFull;
   if (name == "planar") return MotionPart::kPlanar;
   if (name == "tip") return MotionPart::kTip;
-  throw std::invalid_argument("motion oracle must be full, planar or tip, got '" + name + "'");
+  if (name == "physics") return MotionPart::kPhysics;
+  throw std::invalid_argument("motion oracle must be full, planar, tip or physics, got '" + name + "'");
 }
 /// MovingOptions::motion_oracle's motion from pose T_a to T_b (cell frame), about the part's
 /// origin: `part` of it, `fraction` of that part's turn angle and of its origin's displacement.
 /// The tip applied after the planar part is the full motion.
 Pose oracleMotion(const Pose& T_a, const Pose& T_b, MotionPart part, double fraction);
+/// A nozzle's state during one physics step: the script's pose and tool, or none in the cell.
+struct NozzleStep {
+  bool present = false;
+  Pose T_cell_nozzle = Pose::Identity();
+  Tool tool = Tool::kOff;
+};
+/// MotionPart::kPhysics: the motion (cell frame) of part 0 of `shadow`, a world built like the
+/// real one, when its powder is set to `powder`, the part put at rest at `T_from` and the nozzle
+/// stepped through `steps` of `dt` s each. Started at the part's true pose and state, it is the
+/// world's own motion over those steps; started at an estimate, it is what a model of pushing
+/// with the world's exact physics and powder would predict from there.
+Pose physicsMotion(sim::World& shadow, const sim::PowderField& powder, const Pose& T_from,
+                   const std::vector<NozzleStep>& steps, double dt);
 
 /// {"experiment": "static", "seed", "interrupted", "options", "rows": [...]} (keys of each row
 /// as the issue lists them, plus the extra figures above).
