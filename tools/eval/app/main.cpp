@@ -67,7 +67,7 @@ const char* kUsage =
     "                         and its slide; tip: only the rest, its tip and rise or sink), which bounds what a\n"
     "                         motion model could add; physics: the motion the world's own physics and powder\n"
     "                         give the tracker's last estimate under the frame's nozzle path\n"
-    "  --oracle-fraction F    moving: the motion told is F x the true one (turn angle and slide; default 1)\n"
+    "  --oracle-fraction F    moving: the motion told is F x the oracle's (turn angle and slide; default 1)\n"
     "  --push-offset F        moving, report: the push line passes the part's centre sideways by up to F x its\n"
     "                         xy diagonal (seeded; default 0.25): larger turns the part more\n"
     "  --push-speed V         moving, report: the nozzle pushes at V m/s (default 0.02); the time limit grows so\n"
