@@ -16,6 +16,16 @@
 
 namespace depowder::eval {
 
+namespace {
+// The push script's nozzle for the coming step (it has no arm links).
+void setNozzle(sim::World& world, const sim::ArmState& arm) {
+  if (arm.nozzle_present)
+    world.setNozzle(arm.T_cell_nozzle, arm.tool);
+  else
+    world.removeNozzle();
+}
+}  // namespace
+
 MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const MovingOptions& o, const RunControl& control) {
   MovingResult result;
@@ -112,14 +122,11 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
           break;
         }
         sim::ArmState arm;
-        std::vector<NozzleStep> nozzle_steps;
+        std::vector<sim::ArmState> arm_steps;  // the frame's, for the shadow's replay
         advanceFrame(world, cell, [&](double t) {
           arm = push.update(t);
-          nozzle_steps.push_back({arm.nozzle_present, arm.T_cell_nozzle, arm.tool});
-          if (arm.nozzle_present)
-            world.setNozzle(arm.T_cell_nozzle, arm.tool);
-          else
-            world.removeNozzle();
+          if (shadow) arm_steps.push_back(arm);
+          setNozzle(world, arm);
         });
         const bool filtered = o.self_filter && arm.nozzle_present;
         const Cloud scan = source.capture(world, filtered ? &arm.T_cell_nozzle : nullptr);
@@ -127,8 +134,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         min_eta = std::min(min_eta, truth.eta);
         if (shadow) {
           for (std::size_t m = 0; m < methods.size(); ++m) {
-            const Pose T_next =
-                physicsMotion(*shadow, world.powder(), last[m], nozzle_steps, frameStep(cell)) * last[m];
+            const Pose T_next = physicsMotion(*shadow, world.powder(), last[m], arm_steps, frameStep(cell)) * last[m];
             trackers[m].predictMotion(oracleMotion(last[m], T_next, MotionPart::kFull, o.motion_oracle_fraction));
           }
         } else if (!o.motion_oracle.empty()) {
@@ -267,14 +273,11 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
 }
 
 Pose physicsMotion(sim::World& shadow, const sim::PowderField& powder, const Pose& T_from,
-                   const std::vector<NozzleStep>& steps, double dt) {
+                   const std::vector<sim::ArmState>& steps, double dt) {
   shadow.powder() = powder;
   shadow.setPartPose(0, T_from);  // at rest: the frame's motion is the nozzle's doing
-  for (const NozzleStep& s : steps) {
-    if (s.present)
-      shadow.setNozzle(s.T_cell_nozzle, s.tool);
-    else
-      shadow.removeNozzle();
+  for (const sim::ArmState& s : steps) {
+    setNozzle(shadow, s);
     shadow.step(dt);
   }
   return shadow.partTruth(0).T_cell_part * T_from.inverse();

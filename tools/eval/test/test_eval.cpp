@@ -626,7 +626,7 @@ TEST(EvalMoving, PhysicsMotionFromTheTruthIsTheWorldsOwn) {
   sim::World shadow(cell.sim, cell.box, {{"cube", cube, T0, 1000}}, cell.cameras, 3);
   sim::PushScript push(world, sim::pushFrom(world, 0, 180, 0.5, 0.0));
   const double dt = 1.0 / 120;
-  const std::vector<NozzleStep> none(4);
+  const std::vector<sim::ArmState> none(4);  // no nozzle in the cell
   const Pose still = physicsMotion(shadow, world.powder(), T0, none, dt);
   EXPECT_LT(still.translation().norm(), 1e-7);  // a buried part stays put
   EXPECT_LT(rotationAngle(still.linear(), Eigen::Matrix3d::Identity()), 1e-6);
@@ -634,10 +634,10 @@ TEST(EvalMoving, PhysicsMotionFromTheTruthIsTheWorldsOwn) {
   for (int frame = 0; frame < 300 && !moved; ++frame) {
     const sim::PowderField powder = world.powder();
     const Pose T_before = world.partTruth(0).T_cell_part;
-    std::vector<NozzleStep> steps;
+    std::vector<sim::ArmState> steps;
     for (int k = 0; k < 4; ++k) {
       const sim::ArmState a = push.update(world.time() + dt);
-      steps.push_back({a.nozzle_present, a.T_cell_nozzle, a.tool});
+      steps.push_back(a);
       if (a.nozzle_present)
         world.setNozzle(a.T_cell_nozzle, a.tool);
       else

@@ -12,6 +12,7 @@
 
 #include "depowder/eval/json.hpp"
 #include "depowder/eval/scene.hpp"
+#include "depowder/sim/script.hpp"
 #include "depowder/tracker/config.hpp"
 #include "depowder/tracker/part_tracker.hpp"
 
@@ -234,19 +235,13 @@ inline MotionPart motionPart(const std::string& name) {
 /// origin: `part` of it, `fraction` of that part's turn angle and of its origin's displacement.
 /// The tip applied after the planar part is the full motion.
 Pose oracleMotion(const Pose& T_a, const Pose& T_b, MotionPart part, double fraction);
-/// A nozzle's state during one physics step: the script's pose and tool, or none in the cell.
-struct NozzleStep {
-  bool present = false;
-  Pose T_cell_nozzle = Pose::Identity();
-  Tool tool = Tool::kOff;
-};
 /// MotionPart::kPhysics: the motion (cell frame) of part 0 of `shadow`, a world built like the
 /// real one, when its powder is set to `powder`, the part put at rest at `T_from` and the nozzle
-/// stepped through `steps` of `dt` s each. Started at the part's true pose and state, it is the
+/// stepped through the arm states `steps`, `dt` s each. Started at the part's true pose and state, it is the
 /// world's own motion over those steps; started at an estimate, it is what a model of pushing
 /// with the world's exact physics and powder would predict from there.
 Pose physicsMotion(sim::World& shadow, const sim::PowderField& powder, const Pose& T_from,
-                   const std::vector<NozzleStep>& steps, double dt);
+                   const std::vector<sim::ArmState>& steps, double dt);
 
 /// {"experiment": "static", "seed", "interrupted", "options", "rows": [...]} (keys of each row
 /// as the issue lists them, plus the extra figures above).
