@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
+#include <chrono>
 #include <random>
 
 #include "depowder/depth_image_t.hpp"
@@ -262,6 +263,23 @@ TEST(Bus, GarbageAndWrongTypesAreCountedNotFatal) {
   const auto errors = bus.takeErrors();
   ASSERT_FALSE(errors.empty());
   EXPECT_NE(errors.back().find("boom"), std::string::npos);
+}
+
+// drain() handles what has already arrived, up to its limit, and returns at once when nothing is
+// waiting.
+TEST(Bus, DrainHandlesWhatHasArrivedWithoutWaiting) {
+  node::Bus bus("memq://");
+  int got = 0;
+  bus.subscribe<estop_t>("ESTOP", [&](const estop_t&, const std::string&) { ++got; });
+  estop_t e{};
+  for (int i = 0; i < 5; ++i) bus.publish("ESTOP", e);
+  EXPECT_EQ(bus.drain(3), 3);
+  EXPECT_EQ(got, 3);
+  EXPECT_EQ(bus.drain(), 2);
+  EXPECT_EQ(got, 5);
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(bus.drain(), 0);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(500));
 }
 
 TEST(Bus, PrefixSeparatesCells) {

@@ -130,6 +130,7 @@ class CameraNode {
       if (const std::int64_t deadline = proxy_.nextDeadline(); deadline > 0)
         timeout_ms = static_cast<int>(std::clamp<std::int64_t>((deadline - nowUtime() + 999) / 1000, 0, 50));
       bus_.spinOnce(timeout_ms);
+      bus_.drain();  // a camera's frame already in the socket is not late: read it before any deadline
       publishReady();
       for (const std::string& e : bus_.takeErrors()) std::fprintf(stderr, "depowder-camera: %s\n", e.c_str());
       updateHealth();

@@ -75,6 +75,19 @@ int Bus::spinOnce(int timeout_ms) {
   return static_cast<int>(counters_.received + counters_.decode_errors + counters_.handler_errors - before);
 }
 
+int Bus::drain(int max_messages) {
+  int handled = 0;
+  while (handled < max_messages && !shutdownRequested()) {
+    errno = 0;
+    const int rc = lcm_.handleTimeout(0);
+    if (rc < 0 && errno == EINTR) break;  // a signal: the caller's loop checks shutdownRequested()
+    if (rc < 0) throw BusError("LCM handle failed (the LCM socket reported an error)");
+    if (rc == 0) break;
+    ++handled;
+  }
+  return handled;
+}
+
 bool Bus::spinUntil(const std::function<bool()>& done, double seconds, int step_ms) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (!done() && std::chrono::steady_clock::now() < end) spinOnce(step_ms);

@@ -69,6 +69,12 @@ class Bus {
   /// (0 on timeout, and when a signal interrupted the wait or shutdown was requested: the
   /// caller's loop checks shutdownRequested()). Throws BusError if LCM itself fails.
   int spinOnce(int timeout_ms);
+  /// Handles the messages that have already arrived, without waiting, up to `max_messages`
+  /// (over UDP multicast, those on channels nobody here subscribes to count too). Returns how
+  /// many LCM handled.
+  /// A node calls it before acting on a deadline, so that nothing already received is taken
+  /// for late. Throws BusError if LCM itself fails.
+  int drain(int max_messages = 64);
 
   /// Handles messages until `done()` is true or `seconds` have passed; returns done().
   bool spinUntil(const std::function<bool()>& done, double seconds, int step_ms = 20);
