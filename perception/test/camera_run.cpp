@@ -1,5 +1,6 @@
 #include "camera_run.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -66,10 +67,15 @@ CameraRunResult runCamera(const CameraRunConfig& config) {
     for (int step = 0; step < config.steps; ++step) {
       std::this_thread::sleep_until(
           t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(step / config.rate_hz)));
+      // A step's frames are stamped as sent, but at most 1 ms a camera after the first: the
+      // cameras capture together, and a frame sent late because publishing the one before it
+      // (a 150 kB encode) was slow, as in a sanitized build under load, fell outside
+      // match_tolerance and split its time step in two.
+      const std::int64_t captured = node::nowUtime();
       for (std::size_t c = 0; c < config.cameras.size(); ++c) {
         depth_image_t& msg = msgs[c][static_cast<std::size_t>(step) % msgs[c].size()];
         msg.frame = step;
-        msg.utime = node::nowUtime();
+        msg.utime = std::min(node::nowUtime(), captured + 1000 * static_cast<std::int64_t>(c));
         bool publish = true;
         if (config.fault) {
           depth_image_t copy = msg;
