@@ -187,12 +187,7 @@ int main(int argc, char** argv) {
       if (duration > 0 && t > duration + 1e-9) break;
 
       // 3a. The arm: one call per step (scripted nozzle now, the b-CAP emulator later).
-      const ArmState state = arm->update(t);
-      if (state.nozzle_present)
-        world->setNozzle(state.T_cell_nozzle, state.tool);
-      else
-        world->removeNozzle();
-      if (!state.T_cell_links.empty()) world->setArmLinkPoses(state.T_cell_links);
+      world->setArm(arm->update(t));
 
       // 3a'. Injected faults (sim.faults): a pulled controller cable; silenced cameras below. A
       // silenced camera's end is reported in the same form: a sim catching up after a stall ends

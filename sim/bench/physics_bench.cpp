@@ -39,11 +39,7 @@ void run(const std::string& cell, const std::string& scenario, double duration) 
   const Pose T0 = world->partCount() ? world->part(0).T_cell_part : Pose::Identity();
   for (std::int64_t k = 1; k * dt <= duration + 1e-9; ++k) {
     const double t = k * dt;
-    const ArmState a = arm->update(t);
-    if (a.nozzle_present)
-      world->setNozzle(a.T_cell_nozzle, a.tool);
-    else
-      world->removeNozzle();
+    world->setArm(arm->update(t));
     const double c0 = threadCpuS();
     world->step(dt);
     const double c1 = threadCpuS();

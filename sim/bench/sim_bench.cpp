@@ -92,8 +92,7 @@ int main(int argc, char** argv) {
       c = r;
     }
     auto world = makeWorld(setup);
-    const ArmState arm = script.at(3.0);
-    if (arm.nozzle_present) world->setNozzle(arm.T_cell_nozzle, arm.tool);
+    world->setArm(script.at(3.0));
     std::printf("\n%dx%d\n", w, h);
     double both_noisy = 0;
     for (std::size_t c = 0; c < setup.cameras.size(); ++c) {
@@ -116,8 +115,7 @@ int main(int argc, char** argv) {
   std::vector<double> ms;
   ms.reserve(steps);
   for (int k = 1; k <= steps; ++k) {
-    const ArmState arm = script.at(k * dt);
-    if (arm.nozzle_present) world->setNozzle(arm.T_cell_nozzle, arm.tool);
+    world->setArm(script.at(k * dt));
     const double c0 = threadCpuMs();
     world->step(dt);
     ms.push_back(threadCpuMs() - c0);
@@ -128,7 +126,8 @@ int main(int argc, char** argv) {
   for (double m : ms) mean += m;
   mean /= ms.size();
   std::printf(
-      "\nworld step, thread CPU time (%d steps at %.0f Hz, tool %s): mean %.3f ms, p50 %.3f ms, p99 %.3f ms, max %.3f ms"
+      "\nworld step, thread CPU time (%d steps at %.0f Hz, tool %s): mean %.3f ms, p50 %.3f ms, p99 %.3f ms, max %.3f "
+      "ms"
       " -> %.1f %% of one core in real time; removed %.1f cm^3\n",
       steps, base.step_hz, toString(world->tool()), mean, sorted[sorted.size() / 2], sorted[sorted.size() * 99 / 100],
       sorted.back(), mean * base.step_hz / 10.0, world->truth().powder_removed_m3 * 1e6);

@@ -262,6 +262,14 @@ void World::setArmLinkPoses(const std::vector<Pose>& T_cell_link) {
   T_cell_links_ = T_cell_link;
 }
 
+void World::setArm(const ArmState& arm) {
+  if (arm.nozzle_present)
+    setNozzle(arm.T_cell_nozzle, arm.tool);
+  else
+    removeNozzle();
+  if (!arm.T_cell_links.empty()) setArmLinkPoses(arm.T_cell_links);
+}
+
 void World::setPartPose(std::size_t part, const Pose& T_cell_part) {
   PartState& p = parts_.at(part);
   p.spec.T_cell_part = T_cell_part;

@@ -175,6 +175,41 @@ TEST(World, NozzleOccludesAndTouches) {
   EXPECT_FALSE(world.truth().parts[0].nozzle_contact);
 }
 
+// An ArmSource's state as one call: the nozzle set or taken out, the links moved when the state
+// carries their poses and left where they are when it does not.
+TEST(World, SetArmAppliesAnArmSourcesState) {
+  World world(quietConfig(), BoxGeometry{}, {resting("cube")}, {sideCamera()});
+  world.setPowderLevel(0.0);
+  ArmState arm;
+  arm.nozzle_present = true;
+  arm.T_cell_nozzle = nozzlePose({0, 0, 0.055}, {0, 0, -1});  // into the cube's top
+  arm.tool = Tool::kAir;
+  world.setArm(arm);
+  EXPECT_TRUE(world.nozzlePresent());
+  EXPECT_EQ(world.tool(), Tool::kAir);
+  EXPECT_TRUE(world.nozzlePose().isApprox(arm.T_cell_nozzle));
+  world.step(0.01);
+  EXPECT_TRUE(world.truth().parts[0].nozzle_contact);
+  world.setArm(ArmState{});  // no nozzle in the cell
+  EXPECT_FALSE(world.nozzlePresent());
+  EXPECT_EQ(world.tool(), Tool::kOff);
+  world.step(0.01);
+  EXPECT_FALSE(world.truth().parts[0].nozzle_contact);
+
+  // A 2 cm link cube: into the part, then a state without link poses leaves it there.
+  world.setArmLinks({parts::box({0.02, 0.02, 0.02}, 4)});
+  ArmState linked;
+  linked.T_cell_links = {at(0, 0, 0.05)};
+  world.setArm(linked);
+  world.step(0.01);
+  EXPECT_TRUE(world.truth().parts[0].nozzle_contact);
+  world.setArm(ArmState{});
+  world.step(0.01);
+  EXPECT_TRUE(world.truth().parts[0].nozzle_contact);
+  linked.T_cell_links = {at(0, 0, 0.05), at(0, 0, 0.2)};
+  EXPECT_THROW(world.setArm(linked), std::invalid_argument);  // one link mesh, two poses
+}
+
 TEST(World, VacuumVolumeIsAccountedFor) {
   World world(quietConfig(), BoxGeometry{}, {resting("cube", 0.1, 0)}, {});
   const double v0 = world.powder().volume();

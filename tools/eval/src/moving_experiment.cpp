@@ -16,16 +16,6 @@
 
 namespace depowder::eval {
 
-namespace {
-// The push script's nozzle for the coming step (it has no arm links).
-void setNozzle(sim::World& world, const sim::ArmState& arm) {
-  if (arm.nozzle_present)
-    world.setNozzle(arm.T_cell_nozzle, arm.tool);
-  else
-    world.removeNozzle();
-}
-}  // namespace
-
 MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const MovingOptions& o, const RunControl& control) {
   MovingResult result;
@@ -126,7 +116,7 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         advanceFrame(world, cell, [&](double t) {
           arm = push.update(t);
           if (shadow) arm_steps.push_back(arm);
-          setNozzle(world, arm);
+          world.setArm(arm);
         });
         const bool filtered = o.self_filter && arm.nozzle_present;
         const Cloud scan = source.capture(world, filtered ? &arm.T_cell_nozzle : nullptr);
@@ -277,7 +267,7 @@ Pose physicsMotion(sim::World& shadow, const sim::PowderField& powder, const Pos
   shadow.powder() = powder;
   shadow.setPartPose(0, T_from);  // at rest: the frame's motion is the nozzle's doing
   for (const sim::ArmState& s : steps) {
-    setNozzle(shadow, s);
+    shadow.setArm(s);
     shadow.step(dt);
   }
   return shadow.partTruth(0).T_cell_part * T_from.inverse();

@@ -86,7 +86,7 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
           advanceFrame(world, cell, [&](double t) {
             if (!o.nozzle) return world.removeNozzle();
             const sim::ArmState arm = script.at(t);
-            world.setNozzle(arm.T_cell_nozzle, arm.tool);
+            world.setArm(arm);
             T_nozzle = arm.T_cell_nozzle;
           });
           const Cloud scan = source.capture(world, o.nozzle && o.self_filter ? &T_nozzle : nullptr);

@@ -31,6 +31,7 @@
 #include "depowder/sim/physics.hpp"
 #include "depowder/sim/powder.hpp"
 #include "depowder/sim/raster.hpp"
+#include "depowder/sim/script.hpp"
 #include "depowder/sim/solid.hpp"
 
 namespace depowder::sim {
@@ -109,6 +110,9 @@ class World {
   /// tested for contact.
   void setArmLinks(std::vector<Mesh> link_meshes);
   void setArmLinkPoses(const std::vector<Pose>& T_cell_link);
+  /// The arm for the coming step (an ArmSource's state): the nozzle set or taken out, and the
+  /// link poses when it carries any.
+  void setArm(const ArmState& arm);
   /// Moves a part (scripted motion, physics). The powder's floor follows at once. With physics, the
   /// part's body is put there at rest.
   void setPartPose(std::size_t part, const Pose& T_cell_part);
