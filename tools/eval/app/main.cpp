@@ -62,11 +62,13 @@ const char* kUsage =
     "  --probe N              moving: every N frames, a tracker without the filter started at the true pose fits\n"
     "                         that frame's scan 4 times; how far it ends from the truth shows how well the scan\n"
     "                         alone pins the part (printed, and probe_* in the JSON)\n"
-    "  --motion-oracle full|planar|tip|physics  moving: a diagnostic no cell has: each tracker is told the\n"
-    "                         part's true motion since the last frame (planar: only its turn about the vertical\n"
-    "                         and its slide; tip: only the rest, its tip and rise or sink), which bounds what a\n"
-    "                         motion model could add; physics: the motion the world's own physics and powder\n"
-    "                         give the tracker's last estimate under the frame's nozzle path\n"
+    "  --motion-oracle NAME   moving: a diagnostic no cell has (full, planar, tip, physics or physics-scan): each\n"
+    "                         tracker is told the part's true motion since the last frame (planar: only its turn\n"
+    "                         about the vertical and its slide; tip: only the rest, its tip and rise or sink),\n"
+    "                         which bounds what a motion model could add; physics: the motion the world's own\n"
+    "                         physics and powder give the tracker's last estimate under the frame's nozzle path;\n"
+    "                         physics-scan: the same with the powder as the scans show it (median height per\n"
+    "                         column, the part and the nozzle left out), not the world's\n"
     "  --oracle-fraction F    moving: the motion told is F x the oracle's (turn angle and slide; default 1)\n"
     "  --push-offset F        moving, report: the push line passes the part's centre sideways by up to F x its\n"
     "                         xy diagonal (seeded; default 0.25): larger turns the part more\n"
@@ -111,7 +113,7 @@ struct Args {
   double duration = 0;
   bool quiet = false, no_nozzle = false, self_filter = false;
   int probe = 0;                                     ///< moving: --probe N
-  std::string motion_oracle;                         ///< moving: --motion-oracle full|planar|tip|physics
+  std::string motion_oracle;                         ///< moving: --motion-oracle full|planar|tip|physics[-scan]
   double oracle_fraction = -1;                       ///< moving: --oracle-fraction F (< 0: not given)
   double push_offset = -1;                           ///< moving: --push-offset F (< 0: the default)
   double push_speed = -1;                            ///< moving: --push-speed V (< 0: the default)

@@ -6,6 +6,7 @@
 #include <memory>
 #include <random>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "depowder/eval/experiment.hpp"
 #include "depowder/sim/physics.hpp"
@@ -95,6 +96,14 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
       if (oracle_part == MotionPart::kPhysics)
         shadow = std::make_unique<sim::World>(
             cell.sim, cell.box, std::vector<sim::PartSpec>{{part.name, part.mesh, T0, 1000}}, cell.cameras, seed);
+      // physics-scan: each tracker's powder as the scans show it, from the bed at the start.
+      const bool scan_powder = o.motion_oracle == "physics-scan";
+      std::vector<sim::PowderField> seen(scan_powder ? methods.size() : 0, world.powder());
+      for (sim::PowderField& s : seen) {  // no part in it: the shadow puts one at each estimate
+        const double floor = *std::min_element(s.floors().begin(), s.floors().end());
+        s.setFloor(std::vector<double>(s.size(), floor), std::vector<std::uint8_t>(s.size(), 0));
+      }
+      const Eigen::AlignedBox3d box_part = bounds(part.mesh);
 
       std::vector<tracker::PartTracker> trackers;
       for (tracker::Method method : methods)
@@ -124,7 +133,11 @@ MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& par
         min_eta = std::min(min_eta, truth.eta);
         if (shadow) {
           for (std::size_t m = 0; m < methods.size(); ++m) {
-            const Pose T_next = physicsMotion(*shadow, world.powder(), last[m], arm_steps, frameStep(cell)) * last[m];
+            if (scan_powder)
+              powderFromScan(seen[m], scan, arm.nozzle_present ? &arm.T_cell_nozzle : nullptr, box_part, last[m], 0.01);
+            const Pose T_next =
+                physicsMotion(*shadow, scan_powder ? seen[m] : world.powder(), last[m], arm_steps, frameStep(cell)) *
+                last[m];
             trackers[m].predictMotion(oracleMotion(last[m], T_next, MotionPart::kFull, o.motion_oracle_fraction));
           }
         } else if (!o.motion_oracle.empty()) {
@@ -271,6 +284,30 @@ Pose physicsMotion(sim::World& shadow, const sim::PowderField& powder, const Pos
     shadow.step(dt);
   }
   return shadow.partTruth(0).T_cell_part * T_from.inverse();
+}
+
+void powderFromScan(sim::PowderField& powder, const Cloud& scan, const Pose* T_cell_nozzle,
+                    const Eigen::AlignedBox3d& box_part, const Pose& T_cell_part, double margin) {
+  const Pose T_part_cell = T_cell_part.inverse(Eigen::Isometry);
+  const Eigen::AlignedBox3d near(box_part.min().array() - margin, box_part.max().array() + margin);
+  const Pose T_nozzle_cell = T_cell_nozzle ? T_cell_nozzle->inverse(Eigen::Isometry) : Pose::Identity();
+  // The nozzle's body (tip at the origin, 25 cm of it along -z, 1.25 cm radius) and 2 cm and
+  // 1.25 cm round it.
+  constexpr double kBody = 0.25, kAround = 0.02, kRadius = 0.025;
+  std::unordered_map<std::size_t, std::vector<double>> columns;
+  for (const Point& p : scan) {
+    if (near.contains(T_part_cell * p)) continue;
+    if (T_cell_nozzle) {
+      const Point q = T_nozzle_cell * p;
+      if (q.z() > -kBody - kAround && q.z() < kAround && q.head<2>().norm() < kRadius) continue;
+    }
+    int i = 0, j = 0;
+    if (powder.cellOf(p.head<2>(), i, j)) columns[powder.index(i, j)].push_back(p.z());
+  }
+  for (auto& [c, z] : columns) {
+    std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+    powder.setHeight(c, z[z.size() / 2]);
+  }
 }
 
 Pose oracleMotion(const Pose& T_a, const Pose& T_b, MotionPart part, double fraction) {

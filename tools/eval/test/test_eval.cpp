@@ -636,12 +636,8 @@ TEST(EvalMoving, PhysicsMotionFromTheTruthIsTheWorldsOwn) {
     const Pose T_before = world.partTruth(0).T_cell_part;
     std::vector<sim::ArmState> steps;
     for (int k = 0; k < 4; ++k) {
-      const sim::ArmState a = push.update(world.time() + dt);
-      steps.push_back(a);
-      if (a.nozzle_present)
-        world.setNozzle(a.T_cell_nozzle, a.tool);
-      else
-        world.removeNozzle();
+      steps.push_back(push.update(world.time() + dt));
+      world.setArm(steps.back());
       world.step(dt);
     }
     const Pose T_after = world.partTruth(0).T_cell_part;
@@ -656,6 +652,34 @@ TEST(EvalMoving, PhysicsMotionFromTheTruthIsTheWorldsOwn) {
     EXPECT_LT(rotationAngle(predicted.linear(), T_after.linear()), 1e-5);
   }
   EXPECT_TRUE(moved) << "the push never moved the cube";
+}
+
+// physics-scan's powder: a column with scan points takes their median height; the points on the
+// part (within the margin of its box) and on the nozzle's body are not powder; the rest keep theirs.
+TEST(EvalMoving, PowderFromScanTakesColumnMediansButNotThePartOrTheNozzle) {
+  sim::PowderField powder(0.3, 0.3, 0.01);
+  powder.fill(0.05);
+  const Eigen::AlignedBox3d box(Eigen::Vector3d::Constant(-0.01), Eigen::Vector3d::Constant(0.01));
+  const Pose T_part(Eigen::Translation3d(0.1, -0.1, 0.05));
+  const Pose T_nozzle = sim::nozzlePose({-0.1, 0.1, 0.1}, {0, 0, -1});  // tip 10 cm up, body above it
+  const Cloud scan = {{0.055, 0.055, 0.06},   {0.055, 0.055, 0.08}, {0.055, 0.055, 0.07},  // median 7 cm
+                      {-0.095, -0.095, 0.02},                                              // one point: 2 cm
+                      {0.1, -0.1, 0.06},      {0.118, -0.1, 0.04},                         // the part, its margin
+                      {-0.095, 0.105, 0.15},  {-0.095, 0.105, 0.03}};                      // the nozzle, powder below
+  powderFromScan(powder, scan, &T_nozzle, box, T_part, 0.01);
+  auto at = [&](double x, double y) {
+    int i = 0, j = 0;
+    EXPECT_TRUE(powder.cellOf({x, y}, i, j));
+    return powder.height(powder.index(i, j));
+  };
+  EXPECT_NEAR(at(0.055, 0.055), 0.07, 1e-12);
+  EXPECT_NEAR(at(-0.095, -0.095), 0.02, 1e-12);
+  EXPECT_NEAR(at(0.1, -0.1), 0.05, 1e-12);    // kept: the part's own point
+  EXPECT_NEAR(at(0.118, -0.1), 0.05, 1e-12);  // kept: within the margin
+  EXPECT_NEAR(at(-0.095, 0.105), 0.03, 1e-12);
+  EXPECT_NEAR(at(0.0, 0.0), 0.05, 1e-12);                                      // no points: kept
+  powderFromScan(powder, {{0.118, -0.1, 0.04}}, nullptr, box, T_part, 0.005);  // a thinner margin
+  EXPECT_NEAR(at(0.118, -0.1), 0.04, 1e-12);
 }
 
 TEST(EvalMoving, ShortPushShapeAndBounds) {

@@ -153,8 +153,9 @@ struct MovingOptions {
   /// predicts part of the motion). A push lost then is lost by the fits and the filter.
   /// "physics" tells the motion the world's own physics gives the tracker's last estimate over the
   /// frame (physicsMotion): the bound of a pushing model run from the estimate, with the world's
-  /// exact physics and powder.
-  std::string motion_oracle;          ///< "" (none), "full", "planar", "tip" or "physics"
+  /// exact physics and powder. "physics-scan": the same with the powder as the scans show it
+  /// (powderFromScan), not the world's.
+  std::string motion_oracle;          ///< "" (none), "full", "planar", "tip", "physics" or "physics-scan"
   double motion_oracle_fraction = 1;  ///< of the true turn angle and slide
   double success_rot_deg = 15;        ///< Table II: final error within 15 deg...
   double success_trans = 0.015;       ///< ... and 15 mm
@@ -222,19 +223,25 @@ enum class MotionPart {
   kTip,      ///< the rest: the rotation that follows the planar turn, and the rise or sink
   kPhysics,  ///< not the true motion: the world's physics run from the estimate (physicsMotion)
 };
-/// The MotionPart a motion_oracle names: "full", "planar", "tip" or "physics". Throws
+/// The MotionPart a motion_oracle names: "full", "planar", "tip", "physics" or "physics-scan". Throws
 /// std::invalid_argument naming any other.
 inline MotionPart motionPart(const std::string& name) {
   if (name == "full") return MotionPart::kFull;
   if (name == "planar") return MotionPart::kPlanar;
   if (name == "tip") return MotionPart::kTip;
-  if (name == "physics") return MotionPart::kPhysics;
-  throw std::invalid_argument("motion oracle must be full, planar, tip or physics, got '" + name + "'");
+  if (name == "physics" || name == "physics-scan") return MotionPart::kPhysics;
+  throw std::invalid_argument("motion oracle must be full, planar, tip, physics or physics-scan, got '" + name + "'");
 }
 /// MovingOptions::motion_oracle's motion from pose T_a to T_b (cell frame), about the part's
 /// origin: `part` of it, `fraction` of that part's turn angle and of its origin's displacement.
 /// The tip applied after the planar part is the full motion.
 Pose oracleMotion(const Pose& T_a, const Pose& T_b, MotionPart part, double fraction);
+/// The powder as a cell sees it ("physics-scan"): each column of `powder` that holds scan points
+/// takes their median height, but for the points on the nozzle (T_cell_nozzle, if given: within
+/// 2.5 cm of its body's axis) and within `margin` of the part's box at T_cell_part (its own
+/// surface, and the powder it touches, unknown); other columns keep what they had.
+void powderFromScan(sim::PowderField& powder, const Cloud& scan, const Pose* T_cell_nozzle,
+                    const Eigen::AlignedBox3d& box_part, const Pose& T_cell_part, double margin);
 /// MotionPart::kPhysics: the motion (cell frame) of part 0 of `shadow`, a world built like the
 /// real one, when its powder is set to `powder`, the part put at rest at `T_from` and the nozzle
 /// stepped through the arm states `steps`, `dt` s each. Started at the part's true pose and state, it is the
