@@ -41,9 +41,8 @@ struct Pace {
 // The default cell's, at the cameras' 30 Hz. A sanitized build is about ten times slower: on a
 // loaded 2-core machine its node, at 30 Hz, lost up to 17 of 90 steps' frames in its socket,
 // and a cloud that waited for nothing came out 35-43 ms after its frame, about the default
-// max_wait itself. So it runs at 10 Hz and
-// waits five times longer, so that what is tested (a step waits for its late camera, then
-// no longer) stays far from the time a frame takes.
+// max_wait itself. So it runs at 10 Hz and waits five times longer, so that what is tested (a
+// step waits for its late camera, then no longer) stays far from the time a frame takes.
 #ifdef DEPOWDER_SANITIZE
 const Pace kPace{10, 0.2, 1.0, 2.0};
 #else
