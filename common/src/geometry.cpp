@@ -78,4 +78,9 @@ Cloud rotated(const Cloud& normals, const Pose& T) {
   return out;
 }
 
+bool onNozzleBody(const Point& p, double length, double radius, double along, double around) {
+  const double r = radius + around;
+  return p.z() < along && p.z() > -(length + along) && p.head<2>().squaredNorm() < r * r;
+}
+
 }  // namespace depowder

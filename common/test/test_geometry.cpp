@@ -36,6 +36,19 @@ TEST(Geometry, ValidPoseRejectsNanAndShear) {
   EXPECT_FALSE(isValidPose(shear));
 }
 
+TEST(Geometry, OnNozzleBodyGrowsTheBodyByEachMargin) {
+  // A body 25 cm long, 1.25 cm round, grown by 2 cm past its ends and 0.5 cm round its side.
+  auto on = [](double x, double y, double z) { return onNozzleBody({x, y, z}, 0.25, 0.0125, 0.02, 0.005); };
+  EXPECT_TRUE(on(0, 0, -0.1));
+  EXPECT_TRUE(on(0.017, 0, -0.1));       // within 1.75 cm of the axis
+  EXPECT_FALSE(on(0.013, 0.013, -0.1));  // 1.84 cm off it
+  EXPECT_TRUE(on(0, 0, 0.019));          // just below the tip's margin (+z sprays away from the body)
+  EXPECT_FALSE(on(0, 0, 0.021));
+  EXPECT_TRUE(on(0, 0, -0.269));  // the far end's margin
+  EXPECT_FALSE(on(0, 0, -0.271));
+  EXPECT_FALSE(onNozzleBody({0, 0, -0.1}, 0.25, 0.0125, 0.02, -0.0125));  // no radius left: nothing
+}
+
 TEST(PointGrid, NearestMatchesBruteForce) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-0.2, 0.2);

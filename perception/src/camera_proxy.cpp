@@ -94,10 +94,8 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   const Pose* nozzle = sf.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
   // The nozzle frame: tip at the origin, body along -z (the spray direction is +z).
   const Pose T_nozzle_cell = nozzle ? nozzle->inverse(Eigen::Isometry) : Pose::Identity();
-  const double r2 = (sf.radius + sf.margin) * (sf.radius + sf.margin);
   const auto on_nozzle = [&](const Point& p) {
-    const Point q = T_nozzle_cell * p;
-    return q.z() < sf.margin && q.z() > -(sf.length + sf.margin) && q.head<2>().squaredNorm() < r2;
+    return onNozzleBody(T_nozzle_cell * p, sf.length, sf.radius, sf.margin, sf.margin);
   };
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
   for (CameraFrame& f : merged.sources) {

@@ -49,4 +49,9 @@ Cloud transformed(const Cloud& cloud, const Pose& T);
 /// Rotates normals by T's rotation.
 Cloud rotated(const Cloud& normals, const Pose& T);
 
+/// Whether p, in the nozzle's frame (tip at the origin, body along -z), lies on the nozzle's body
+/// (`length` m of it above the tip, `radius` m) grown by `along` m past both its ends and by
+/// `around` m round its side (strict bounds).
+bool onNozzleBody(const Point& p_nozzle, double length, double radius, double along, double around);
+
 }  // namespace depowder

@@ -291,16 +291,12 @@ void powderFromScan(sim::PowderField& powder, const Cloud& scan, const Pose* T_c
   const Pose T_part_cell = T_cell_part.inverse(Eigen::Isometry);
   const Eigen::AlignedBox3d near(box_part.min().array() - margin, box_part.max().array() + margin);
   const Pose T_nozzle_cell = T_cell_nozzle ? T_cell_nozzle->inverse(Eigen::Isometry) : Pose::Identity();
-  // The nozzle's body (tip at the origin, 25 cm of it along -z, 1.25 cm radius) and 2 cm and
-  // 1.25 cm round it.
-  constexpr double kBody = 0.25, kAround = 0.02, kRadius = 0.025;
+  // The nozzle's body (25 cm of it, 1.25 cm radius) and 2 cm past its ends and 1.25 cm round it.
+  constexpr double kLength = 0.25, kRadius = 0.0125, kAlong = 0.02, kAround = 0.0125;
   std::unordered_map<std::size_t, std::vector<double>> columns;
   for (const Point& p : scan) {
     if (near.contains(T_part_cell * p)) continue;
-    if (T_cell_nozzle) {
-      const Point q = T_nozzle_cell * p;
-      if (q.z() > -kBody - kAround && q.z() < kAround && q.head<2>().norm() < kRadius) continue;
-    }
+    if (T_cell_nozzle && onNozzleBody(T_nozzle_cell * p, kLength, kRadius, kAlong, kAround)) continue;
     int i = 0, j = 0;
     if (powder.cellOf(p.head<2>(), i, j)) columns[powder.index(i, j)].push_back(p.z());
   }
