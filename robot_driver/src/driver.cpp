@@ -304,8 +304,8 @@ bool Driver::slaveCycle() {
   in.nozzle = forwardNozzle(cfg_.arm, limiter_.last()).translation();
   in.was_inside = was_inside_;
   in.planner_mismatch = mismatch;
-  // Braking (with a margin for the discrete profile) plus the cycle that notices and the cycle
-  // that sends the first unchanged command.
+  // Braking (in whole cycles, with a 20 % margin) plus the cycle that notices and the cycle that
+  // sends the first unchanged command.
   in.stop_lead_s = 1.2 * generator_.brakingTime() + 2 * cfg_.trajectory.cycle_s;
   const SafetyVerdict verdict = checkSafety(cfg_.safety, in);
   if (verdict.stop != StopReason::None) {

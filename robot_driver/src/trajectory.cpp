@@ -194,7 +194,8 @@ double TrajectoryGenerator::brakingTime() const {
     a = std::min(a, segments_[k].amax);
     left += segments_[k].length;
   }
-  return speed_ / a;
+  // advance() brakes by a * cycle a step, so the stop ends on a whole cycle.
+  return std::ceil(speed_ / (a * cfg_.cycle_s) - 1e-9) * cfg_.cycle_s;
 }
 
 TrajectoryGenerator::Segment TrajectoryGenerator::makeSegment(const Joints& a, const Joints& b,

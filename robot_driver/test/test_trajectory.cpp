@@ -254,3 +254,37 @@ TEST(Trajectory, EmptyPlanStops) {
   EXPECT_FALSE(gen.current().moving);
   EXPECT_FALSE(gen.finished());
 }
+
+// The driver stops this long (x 1.2, + 2 cycles) before a staleness limit so that the arm is at
+// rest by it (driver.cpp, step 5): the estimate must cover the stop as the 8 ms steps brake it,
+// a whole number of cycles, including the slow vacuum passes whose stop takes a single cycle.
+TEST(Trajectory, BrakingTimeBoundsTheDiscreteStop) {
+  const ArmConfig arm = cellArm();
+  TrajectoryConfig cfg;
+  for (const double speed : {0.01, 0.03, 0.1, 0.3, 1.0}) {
+    double under = -1e9, over = -1e9;  // worst (stop - predicted), worst (predicted - stop), s
+    int stops = 0;
+    for (int at = 5; at < 300; at += 7) {
+      TrajectoryGenerator gen(arm, cfg);
+      gen.reset(arm.q_home);
+      const auto pp =
+          preparePlan(arm, cfg, Workspace(), linePlan(1, {{0.15, 0.12, 0.05}, {-0.15, -0.1, 0.3}}, speed), arm.q_home);
+      ASSERT_TRUE(pp.usable());
+      gen.setPlan(pp);
+      for (int k = 0; k < at; ++k) gen.step();
+      if (!gen.current().moving) continue;
+      const double predicted = gen.brakingTime();
+      gen.stop();
+      int cycles = 1;  // the cycle that brakes to rest
+      while (gen.step().moving) ++cycles;
+      under = std::max(under, cycles * cfg.cycle_s - predicted);
+      over = std::max(over, predicted - cycles * cfg.cycle_s);
+      ++stops;
+    }
+    std::printf("  nozzle %.2f m/s, %d stops: stop - predicted at most %.4f s, predicted - stop at most %.4f s\n",
+                speed, stops, under, over);
+    ASSERT_GT(stops, 10);
+    EXPECT_LE(under, 1e-9);
+    EXPECT_LE(over, 3 * cfg.cycle_s);  // an upper estimate, not an idle one
+  }
+}

@@ -121,7 +121,7 @@ class TrajectoryGenerator {
 
   const TrajectorySample& current() const { return sample_; }
   bool atRest() const { return speed_ == 0.0 && !hasPath(); }
-  /// Time a controlled stop started now would take, s (an upper estimate).
+  /// Time a controlled stop started now would take, s: whole cycles, an upper estimate.
   double brakingTime() const;
   bool stopping() const { return stopping_; }
   bool hasPath() const { return segment_ < segments_.size(); }
