@@ -1,5 +1,6 @@
 // The driver's safety rules that need no arm: which planner heartbeats count (PlannerWatch) and
-// whether a new plan may run (checkNewPlan), with the times passed in.
+// whether a new plan may run (checkNewPlan) or a running one must stop (checkSafety), with the
+// times passed in.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -50,4 +51,41 @@ TEST(CheckNewPlan, AgeAgainstThisHostsClock) {
   EXPECT_NE(ahead.reason.find("0.300 s ahead of this host's clock (limit 0.250 s)"), std::string::npos) << ahead.reason;
   EXPECT_EQ(checkNewPlan(c, now, 0, 0.1).stop, StopReason::PlanStale);  // no source time
   EXPECT_EQ(checkNewPlan(c, now, now, 1.1).stop, StopReason::HeartbeatLost);
+}
+
+// A plan's age and the planner heartbeat's are held to their limits `stop_lead_s` early, so that
+// the arm, braking for that long, is at rest by the limit.
+TEST(CheckSafety, AgeLimitsComeTheStopLeadEarly) {
+  SafetyConfig c;                                  // plan_max_age 1.5 s, planner_heartbeat_timeout 1.0 s
+  const std::int64_t now = 1'800'000'000'000'000;  // us
+  SafetyInputs in;
+  in.following = true;
+  in.now_utime = now;
+  in.plan_utime = now - 1'460'000;
+  in.heartbeat_age_s = 0.96;
+  in.nozzle = Eigen::Vector3d(0, 0, 0.1);
+  in.stop_lead_s = 0.03;
+  EXPECT_EQ(checkSafety(c, in).stop, StopReason::None);  // 1.49 s and 0.99 s with the lead
+  in.plan_utime = now - 1'480'000;
+  const SafetyVerdict stale = checkSafety(c, in);
+  EXPECT_EQ(stale.stop, StopReason::PlanStale);
+  EXPECT_NE(stale.reason.find("plan is 1.510 s old (limit 1.500 s)"), std::string::npos) << stale.reason;
+  in.plan_utime = now - 1'460'000;
+  in.heartbeat_age_s = 0.975;
+  const SafetyVerdict lost = checkSafety(c, in);
+  EXPECT_EQ(lost.stop, StopReason::HeartbeatLost);
+  EXPECT_NE(lost.reason.find("last planner heartbeat 1.005 s ago (limit 1.000 s)"), std::string::npos) << lost.reason;
+  in.stop_lead_s = 0;
+  EXPECT_EQ(checkSafety(c, in).stop, StopReason::None);  // without the lead, 25 ms to go
+  // Not following a plan: nothing to stop.
+  in.heartbeat_age_s = 5;
+  in.following = false;
+  EXPECT_EQ(checkSafety(c, in).stop, StopReason::None);
+  // Leaving the workspace box stops; starting outside it (after a manual move) does not.
+  in.following = true;
+  in.heartbeat_age_s = 0.1;
+  in.nozzle = Eigen::Vector3d(0.3, 0, 0.1);
+  EXPECT_EQ(checkSafety(c, in).stop, StopReason::Workspace);
+  in.was_inside = false;
+  EXPECT_EQ(checkSafety(c, in).stop, StopReason::None);
 }
