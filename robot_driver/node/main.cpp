@@ -210,6 +210,7 @@ int main(int argc, char** argv) {
       heartbeat.setStat("reconnects", static_cast<double>(s.reconnects));
       heartbeat.setStat("faults", static_cast<double>(s.faults));
       heartbeat.setStat("realtime", realtime ? 1.0 : 0.0);
+      heartbeat.setStat("follow_lag_ms", st.follow_lag_s * 1000);
       const bool fine = st.mode == robot::DriverMode::Idle || st.mode == robot::DriverMode::Following;
       const bool problem = !input_problem.empty() && robot::bcap::monotonicNs() - input_problem_ns < 2'000'000'000LL;
       if (!fine)  // with a plan just refused, say why it was (it may be why the arm stays put)

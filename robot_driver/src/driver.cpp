@@ -1,6 +1,8 @@
 #include "depowder/robot/driver.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace depowder::robot {
 namespace {
@@ -304,9 +306,9 @@ bool Driver::slaveCycle() {
   in.nozzle = forwardNozzle(cfg_.arm, limiter_.last()).translation();
   in.was_inside = was_inside_;
   in.planner_mismatch = mismatch;
-  // Braking (in whole cycles, with a 20 % margin) plus the cycle that notices and the cycle that
-  // sends the first unchanged command.
-  in.stop_lead_s = 1.2 * generator_.brakingTime() + 2 * cfg_.trajectory.cycle_s;
+  // Braking (in whole cycles, with a 20 % margin) plus the cycle that notices, the cycle that
+  // sends the first unchanged command and the time the arm takes to reach the last one.
+  in.stop_lead_s = 1.2 * generator_.brakingTime() + 2 * cfg_.trajectory.cycle_s + follow_lag_s_;
   const SafetyVerdict verdict = checkSafety(cfg_.safety, in);
   if (verdict.stop != StopReason::None) {
     generator_.stop();
@@ -342,6 +344,7 @@ bool Driver::slaveCycle() {
     return false;
   }
   if (exchange_hook_) exchange_hook_(t_done);
+  updateFollowLag(cmd.q, measured);
 
   // 8. Status.
   std::lock_guard<PiMutex> lock(mutex_);
@@ -356,6 +359,7 @@ bool Driver::slaveCycle() {
   status_.plan_id = sample.plan_id;
   status_.waypoint_index = sample.waypoint_index;
   status_.plan_utime = plan_utime;
+  status_.follow_lag_s = follow_lag_s_;
   if (safety_stopped_) {
     status_.mode = sample.moving ? DriverMode::Following : DriverMode::Holding;
   } else if (sample.moving || (have_plan_ && !generator_.finished())) {
@@ -366,6 +370,20 @@ bool Driver::slaveCycle() {
     status_.reason = generator_.finished() ? "plan " + std::to_string(sample.plan_id) + " done" : "no plan";
   }
   return (cfg_.session.slave_mode & 0x200) != 0;
+}
+
+void Driver::updateFollowLag(const Joints& command, const Joints& measured) {
+  // The joint commanded fastest: its offset from the reply, over its speed, is how long the arm
+  // takes to reach a command. A peak, forgotten over about 10 s; not measured while braking (the
+  // offset then spans faster steps) nor below 0.05 rad/s (the offset is then mostly noise).
+  const Joints& v = limiter_.velocity();
+  int fastest = 0;
+  for (int i = 1; i < 6; ++i)
+    if (std::abs(v[i]) > std::abs(v[fastest])) fastest = i;
+  follow_lag_s_ *= 1.0 - cfg_.trajectory.cycle_s / 10.0;
+  if (generator_.stopping() || std::abs(v[fastest]) < 0.05) return;
+  const double lag = std::abs(command[fastest] - measured[fastest]) / std::abs(v[fastest]);
+  follow_lag_s_ = std::max(follow_lag_s_, std::min(lag, 0.5));
 }
 
 void Driver::run(const std::atomic<bool>& stop) {

@@ -331,6 +331,7 @@ std::vector<double> BcapEmulator::jointsDegreesLocked() const {
 void BcapEmulator::stopArmLocked(bool motor_off) {
   slave_mode_ = 0;
   qd_ = {};
+  on_the_way_.clear();  // halted where it is
   halted_ = true;
   halt_time_ = std::chrono::steady_clock::now();
   last_move_ns_ = 0;
@@ -525,6 +526,7 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
     if (*v == 0) {
       slave_mode_ = 0;
       qd_ = {};
+      on_the_way_.clear();
       last_move_ns_ = 0;
       cycle_origin_ns_ = 0;
       return reply(req, hr::S_OK, {Variant::empty()});
@@ -538,6 +540,7 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
     slave_mode_ = static_cast<int>(*v);
     halted_ = false;
     qd_ = {};
+    on_the_way_.clear();
     last_move_ns_ = 0;
     cycle_origin_ns_ = 0;
     return reply(req, hr::S_OK, {Variant::empty()});
@@ -583,8 +586,10 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
                    "J" + std::to_string(i + 1) + " target " + std::to_string((*values)[i]) + " deg outside its limits");
     }
   }
+  // A target is checked against the one before it: that is the step the client commanded.
+  const robot::Joints& previous = on_the_way_.empty() ? q_ : on_the_way_.back();
   for (int i = 0; i < 6; ++i) {
-    const double step = std::abs(target[i] - q_[i]);
+    const double step = std::abs(target[i] - previous[i]);
     if (step > config_.qd_max[i] * config_.cycle_s * config_.speed_margin) {
       ++stats_.speed_errors;
       stopArmLocked(true);
@@ -609,8 +614,15 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
     if (slave_mode_ == 0) return error(req, halted_ ? hr::E_HALTED : hr::E_NOT_SLAVE_MODE, "slvMove (stopped)");
   }
   const double dt = last_move_ns_ != 0 ? static_cast<double>(apply_at - last_move_ns_) * 1e-9 : config_.cycle_s;
-  for (int i = 0; i < 6; ++i) qd_[i] = (target[i] - q_[i]) / std::max(dt, 1e-6);
-  q_ = target;
+  // The arm reaches the target servo_lag_cycles later.
+  on_the_way_.push_back(target);
+  robot::Joints reached = q_;
+  if (static_cast<int>(on_the_way_.size()) > config_.servo_lag_cycles) {
+    reached = on_the_way_.front();
+    on_the_way_.pop_front();
+  }
+  for (int i = 0; i < 6; ++i) qd_[i] = (reached[i] - q_[i]) / std::max(dt, 1e-6);
+  q_ = reached;
   last_move_ns_ = apply_at;
   last_reply_ns_ = nowNs();
   ++slave_moves_;

@@ -338,6 +338,49 @@ TEST_F(SlaveSession, SlaveModeMovesTheArmOnTheCycle) {
   EXPECT_FALSE(emu.halted());
 }
 
+// A servo 3 cycles behind: each reply carries the target of 3 commands before; the speed limit
+// applies to the commanded steps; a halt leaves the arm where it is.
+TEST(BcapEmulator, RepliesCarryWhereALaggingArmIs) {
+  BcapEmulatorConfig cfg = testConfig();
+  cfg.servo_lag_cycles = 3;
+  BcapEmulator emu{cfg};
+  ASSERT_TRUE(emu.start()) << "the emulator could not listen on loopback";
+  Client c{clientConfig(emu.port())};
+  const Session s = openSession(c, 0x202);
+  const robot::Joints start = emu.joints().q;
+  std::vector<robot::Joints> sent;
+  robot::Joints q = start;
+  for (int k = 0; k < 10; ++k) {
+    q[0] += 0.001;
+    sent.push_back(q);
+    const auto r = move(c, s, q);
+    ASSERT_TRUE(r.ok()) << r.error;
+    const robot::Joints& expected = k < 3 ? start : sent[static_cast<std::size_t>(k - 3)];
+    EXPECT_NEAR(r.values.at(0).asReals()->at(0) / kDeg, expected[0], 1e-12) << "command " << k;
+  }
+  EXPECT_NEAR(emu.joints().q[0], sent[6][0], 1e-12);
+  // Three unchanged commands bring the arm to the last target.
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(move(c, s, q).ok());
+  EXPECT_NEAR(emu.joints().q[0], q[0], 1e-12);
+  // A step judged against the previous target, not the lagging arm: 0.03 rad in 8 ms (3.75 rad/s,
+  // under J1's 3.927 x 1.5) passes although the arm is further behind.
+  q[0] += 0.03;
+  ASSERT_TRUE(move(c, s, q).ok());
+  q[0] += 0.03;
+  ASSERT_TRUE(move(c, s, q).ok());
+  const double before_halt = emu.joints().q[0];
+  ASSERT_TRUE(c.robotHalt(s.robot).ok());
+  EXPECT_NEAR(emu.joints().q[0], before_halt, 1e-12);  // halted where it was
+  // Back in slave mode, holding there: the targets sent before the halt were dropped.
+  ASSERT_TRUE(c.robotExecute(s.robot, "slvChangeMode", Variant::i4(0x202)).ok());
+  const robot::Joints here = emu.joints().q;
+  for (int k = 0; k < 5; ++k) {
+    const auto r = move(c, s, here);
+    ASSERT_TRUE(r.ok()) << r.error;
+    EXPECT_NEAR(r.values.at(0).asReals()->at(0) / kDeg, here[0], 1e-12) << "command " << k;
+  }
+}
+
 TEST_F(SlaveSession, LateCommandStopsTheArmUntilClearError) {
   const robot::Joints q = emu.joints().q;
   ASSERT_TRUE(move(c, s, q).ok());

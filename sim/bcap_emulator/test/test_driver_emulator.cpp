@@ -49,9 +49,10 @@ Plan linePlan(std::int64_t id, const std::vector<Eigen::Vector3d>& pts, double s
 // Emulator + driver loop thread + a planner heartbeat thread, all in this process.
 class Rig {
  public:
-  explicit Rig(std::function<void(DriverConfig&)> tune = {}) {
+  explicit Rig(std::function<void(DriverConfig&)> tune = {}, int servo_lag_cycles = 0) {
     sim::BcapEmulatorConfig ecfg;
     ecfg.port = 0;
+    ecfg.servo_lag_cycles = servo_lag_cycles;
     ecfg.motor_on_time_s = 0.02;
     // The late-command rule is test_bcap_emulator's and the jitter bench's. Here a host stall
     // (a virtual machine's, 14 to 96 ms) would stop the arm, and a 1 s plan go stale meanwhile.
@@ -75,7 +76,10 @@ class Rig {
     loop_ = std::thread([this] { driver_->run(stop_); });
     hb_ = std::thread([this] {
       while (!stop_) {
-        if (heartbeats_) driver_->plannerHeartbeat();
+        if (heartbeats_) {
+          driver_->plannerHeartbeat();
+          last_heartbeat_ = std::chrono::steady_clock::now();
+        }
         std::this_thread::sleep_for(50ms);
       }
     });
@@ -118,6 +122,7 @@ class Rig {
   Driver& driver() { return *driver_; }
   const DriverConfig& cfg() const { return cfg_; }
   std::atomic<bool> heartbeats_{true};
+  std::atomic<std::chrono::steady_clock::time_point> last_heartbeat_{};
   std::atomic<std::int64_t> wall_offset_us_{0};
   bool atNozzle(const Eigen::Vector3d& p, double tol = 1e-9) {
     return (forwardNozzle(cfg_.arm, emu_->joints().q).translation() - p).norm() < tol;
@@ -344,6 +349,34 @@ TEST(DriverEmulator, LostPlannerHeartbeatStops) {
   // Once the heartbeat is older than the limit, new plans are refused.
   std::this_thread::sleep_for(100ms);
   EXPECT_FALSE(rig.driver().submitPlan(linePlan(2, {{0.0, 0.0, 0.2}}, 0.05)).accepted);
+}
+
+// A servo that reaches each command 5 cycles (40 ms) late, as a real arm's may: the driver
+// measures the lag from the replies and starts its stop that much earlier, so the arm itself (not
+// just the commands) is at rest by the heartbeat's limit.
+TEST(DriverEmulator, ALaggingServoIsAtRestByTheLimit) {
+  for (const int lag : {0, 5}) {
+    Rig rig({}, lag);
+    ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+    ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.15, 0.1, 0.1}}, 0.05)).accepted);
+    ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+    std::this_thread::sleep_for(300ms);
+    const double measured = rig.driver().status().follow_lag_s;
+    std::printf("  servo %d cycles late: follow lag measured %.1f ms\n", lag, measured * 1000);
+    // At least the lag (the driver must not stop too late), at most a cycle more.
+    EXPECT_GE(measured, lag * 0.008 - 1e-4);
+    EXPECT_LE(measured, lag * 0.008 + 0.008);
+    rig.heartbeats_ = false;
+    std::this_thread::sleep_for(60ms);  // the heartbeat thread's last beat is in
+    const auto last = rig.last_heartbeat_.load();
+    // At rest: the emulator's arm has not moved for two cycles.
+    ASSERT_TRUE(rig.waitFor([&] { return rig.emu().joints().qd == Joints{}; }, 2.0));
+    const double rest = std::chrono::duration<double>(std::chrono::steady_clock::now() - last).count();
+    std::printf("  last heartbeat -> arm at rest %.1f ms (limit %.0f ms)\n", rest * 1000,
+                rig.cfg().safety.planner_heartbeat_timeout_s * 1000);
+    // By the limit, give or take this test's 2 ms polling and a cycle of the loop's timing.
+    EXPECT_LE(rest, rig.cfg().safety.planner_heartbeat_timeout_s + 0.010);
+  }
 }
 
 TEST(DriverEmulator, EstopHaltsAtOnceAndNeedsAReset) {

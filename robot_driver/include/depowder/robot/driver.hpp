@@ -63,6 +63,9 @@ struct DriverStatus {
   int waypoint_index = -1;
   std::int64_t plan_utime = 0;
   std::string last_plan_result;  ///< accepted / refused, with the reason
+  /// s, how far the measured position lags the commands (peak of the last seconds of motion; 0 in
+  /// the emulator unless it models a servo's delay): a controlled stop starts this much earlier too
+  double follow_lag_s = 0;
   DriverStats stats;
 };
 
@@ -114,6 +117,8 @@ class Driver {
   bool enableFromCurrentPosition();
   void setMode(DriverMode m, const std::string& reason);
   bool slaveCycle();
+  /// follow_lag_s_ from this cycle's command and the position its reply carried.
+  void updateFollowLag(const Joints& command, const Joints& measured);
   void sleepCycle();
 
   DriverConfig cfg_;
@@ -141,6 +146,7 @@ class Driver {
   std::int64_t estop_seen_ = 0;
   bool safety_stopped_ = false;
   bool was_inside_ = true;
+  double follow_lag_s_ = 0;
   std::int64_t next_connect_ns_ = 0;
   std::int64_t deadline_ns_ = 0;
   std::function<void(std::int64_t)> exchange_hook_;

@@ -16,6 +16,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -39,11 +40,13 @@ struct BcapEmulatorConfig {
   robot::Joints qd_max = robot::ArmConfig().qd_max;     ///< rad/s, per-cycle step limit (with speed_margin)
   robot::Joints q_initial = robot::ArmConfig().q_home;  ///< rad, the arm at start
   double cycle_s = 0.008;                               ///< s, slave-mode control cycle (RC8: 8 ms)
-  double late_limit_s = 0.016;           ///< s, sync mode: a slvMove this long after the previous is an error
-  double speed_margin = 1.5;             ///< a cycle may move a joint by qd_max * cycle_s * speed_margin
-  double motor_on_time_s = 0.05;         ///< s, "Motor 1" takes this long (the servo powering up); on a
-                                         ///< connection whose ServiceStart asked for "WDT=ms", a "still
-                                         ///< executing" reply goes out every WDT meanwhile, as DENSO's server does
+  double late_limit_s = 0.016;    ///< s, sync mode: a slvMove this long after the previous is an error
+  double speed_margin = 1.5;      ///< a cycle may move a joint by qd_max * cycle_s * speed_margin
+  int servo_lag_cycles = 0;       ///< the arm reaches a slvMove's target this many cycles later (a servo's following
+                                  ///< delay; 0: at once); the reply carries where the arm is
+  double motor_on_time_s = 0.05;  ///< s, "Motor 1" takes this long (the servo powering up); on a
+                                  ///< connection whose ServiceStart asked for "WDT=ms", a "still
+                                  ///< executing" reply goes out every WDT meanwhile, as DENSO's server does
   std::string vacuum_variable = "IO24";  ///< controller I/O variable that switches the vacuum
   std::string air_variable = "IO25";     ///< controller I/O variable that switches the air blast
   int max_connections = 8;               ///< further connections are closed at once
@@ -155,8 +158,9 @@ class BcapEmulator {
   std::map<std::uint32_t, Handle> handles_;
   std::map<int, double> wdt_s_;  ///< per connection, ServiceStart's "WDT=ms" (s); absent: none
   std::uint32_t next_handle_ = 1;
-  robot::Joints q_{};
+  robot::Joints q_{};  ///< where the arm is
   robot::Joints qd_{};
+  std::deque<robot::Joints> on_the_way_;  ///< targets the arm has not reached yet (servo_lag_cycles)
   bool motor_on_ = false;
   int arm_owner_ = 0;  ///< connection id, 0 = free
   int slave_mode_ = 0;
