@@ -349,7 +349,8 @@ int report(const std::string& fault, const std::string& log_path, const std::str
                                       last_hb + static_cast<std::int64_t>(safety.planner_heartbeat_timeout_s * 1e6));
     constexpr double kSlackMs = 20;
     c.measured("arm at rest - first stop rule due", (*rest - due) * 1e-3, "ms");
-    c.check((*rest - due) * 1e-3 <= kSlackMs, "at rest by the first stop rule due (+20 ms)");
+    c.check((*rest - due) * 1e-3 <= kSlackMs,
+            "at rest by the first stop rule due (+" + std::to_string(static_cast<int>(kSlackMs)) + " ms)");
     std::string reason;
     for (const robot_state_t& s : log.states)
       if (s.utime > at && s.utime < until && s.mode == robot_state_t::MODE_HOLDING) reason = s.mode_reason;

@@ -328,14 +328,18 @@ std::vector<double> BcapEmulator::jointsDegreesLocked() const {
   return deg;
 }
 
-void BcapEmulator::stopArmLocked(bool motor_off) {
-  slave_mode_ = 0;
+void BcapEmulator::restLocked() {
   qd_ = {};
-  on_the_way_.clear();  // halted where it is
-  halted_ = true;
-  halt_time_ = std::chrono::steady_clock::now();
+  on_the_way_.clear();  // the arm stays where it is
   last_move_ns_ = 0;
   cycle_origin_ns_ = 0;
+}
+
+void BcapEmulator::stopArmLocked(bool motor_off) {
+  slave_mode_ = 0;
+  restLocked();
+  halted_ = true;
+  halt_time_ = std::chrono::steady_clock::now();
   if (motor_off) motor_on_ = false;
 }
 
@@ -525,10 +529,7 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
     if (arm_owner_ != connection) return error(req, hr::E_ARM_NOT_TAKEN, "slvChangeMode");
     if (*v == 0) {
       slave_mode_ = 0;
-      qd_ = {};
-      on_the_way_.clear();
-      last_move_ns_ = 0;
-      cycle_origin_ns_ = 0;
+      restLocked();
       return reply(req, hr::S_OK, {Variant::empty()});
     }
     const std::int64_t kind = *v & 0xFF, sync = *v & ~0xFF;
@@ -539,10 +540,7 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
     if (!motor_on_) return error(req, hr::E_MOTOR_OFF, "slvChangeMode");
     slave_mode_ = static_cast<int>(*v);
     halted_ = false;
-    qd_ = {};
-    on_the_way_.clear();
-    last_move_ns_ = 0;
-    cycle_origin_ns_ = 0;
+    restLocked();
     return reply(req, hr::S_OK, {Variant::empty()});
   }
   return error(req, hr::E_NOTIMPL, "Robot_Execute '" + *cmd + "' is not emulated");

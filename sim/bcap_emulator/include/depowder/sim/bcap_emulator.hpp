@@ -140,7 +140,10 @@ class BcapEmulator {
   robot::bcap::Packet error(const robot::bcap::Packet& req, std::uint32_t hresult, const std::string& why);
   robot::bcap::Packet robotExecute(const robot::bcap::Packet& req, int connection, const PartialReply& partial);
   robot::bcap::Packet slvMove(const robot::bcap::Packet& req, int connection, const robot::bcap::Variant& param);
-  /// Stops the arm (caller holds mutex_): leaves slave mode, zero velocity, halted.
+  /// The arm at rest where it is, no slave cycle running (caller holds mutex_): zero velocity, no
+  /// target on the way, the cycle clock restarted by the next slvMove.
+  void restLocked();
+  /// Stops the arm (caller holds mutex_): leaves slave mode, at rest (restLocked), halted.
   void stopArmLocked(bool motor_off);
   std::optional<std::uint32_t> handleArg(const robot::bcap::Packet& req, std::size_t i, Handle::Kind kind) const;
   std::vector<double> jointsDegreesLocked() const;
