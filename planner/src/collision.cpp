@@ -248,8 +248,6 @@ Contact CollisionWorld::checkArm(const robot::Joints& q, const CheckOptions& opt
   return impl_->armContact(q, options);
 }
 
-bool CollisionWorld::hasArm() const { return impl_->arm != nullptr; }
-
 const robot::ArmConfig& CollisionWorld::arm() const {
   if (!impl_->arm) throw std::logic_error("CollisionWorld::arm: no arm model");
   return *impl_->arm;

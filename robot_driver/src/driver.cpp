@@ -109,10 +109,7 @@ void Driver::plannerHeartbeat(const std::string& mismatch) {
 void Driver::estop(bool stop, const std::string& why) {
   if (stop) {
     const bool first = !estop_latched_.exchange(true);
-    if (first) {
-      estop_ns_ = monoNs();
-      ++estop_events_;
-    }
+    if (first) ++estop_events_;
     // Halt at once from this thread: the watch connection never waits behind a slvMove.
     if (session_.isOpen()) session_.halt();
     std::lock_guard<PiMutex> lock(mutex_);

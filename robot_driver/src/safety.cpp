@@ -49,7 +49,6 @@ CommandLimiter::Result CommandLimiter::apply(const Joints& target) {
     q_[i] = q;
     r.q[i] = q;
   }
-  if (r.clipped()) ++clipped_;
   return r;
 }
 

@@ -380,18 +380,9 @@ void Physics::step(double dt, const StepInput& in) {
 
 Pose Physics::pose(std::size_t part) const { return impl_->partPose(impl_->parts.at(part)); }
 
-Eigen::Vector3d Physics::linearVelocity(std::size_t part) const {
-  return toEigen(impl_->parts.at(part).b.body->getLinearVelocity());
-}
-
-Eigen::Vector3d Physics::angularVelocity(std::size_t part) const {
-  return toEigen(impl_->parts.at(part).b.body->getAngularVelocity());
-}
-
 bool Physics::touching(std::size_t part) const { return impl_->parts.at(part).touching; }
 const MassProperties& Physics::massProperties(std::size_t part) const { return impl_->parts.at(part).mass; }
 const std::vector<ConvexPiece>& Physics::pieces(std::size_t part) const { return impl_->parts.at(part).pieces; }
-const PowderSupport& Physics::powderSupport(std::size_t part) const { return impl_->parts.at(part).powder; }
 const PhysicsStats& Physics::stats() const { return impl_->stats; }
 const PhysicsConfig& Physics::config() const { return impl_->config; }
 

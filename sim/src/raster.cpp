@@ -42,7 +42,6 @@ void DepthRasterizer::begin(const CameraModel& camera) {
   inv_depth_.assign(static_cast<std::size_t>(width_) * height_, 0.0f);
   ids_.resize(inv_depth_.size());
   normals_.clear();
-  triangles_drawn_ = 0;
 }
 
 void DepthRasterizer::drawMesh(const std::vector<Eigen::Vector3d>& vertices,
@@ -80,7 +79,6 @@ void DepthRasterizer::drawCameraFrame(const std::vector<Eigen::Vector3f>& cam, c
     if (!(len > 0)) continue;
     const int id = static_cast<int>(normals_.size());
     normals_.push_back(n / len);
-    ++triangles_drawn_;
     if (in_a && in_b && in_c) {
       const Eigen::Vector3f tri[3] = {a, b, c};
       rasterize(tri, id);

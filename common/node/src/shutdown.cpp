@@ -17,6 +17,5 @@ void installShutdownHandlers() {
 }
 
 bool shutdownRequested() { return g_stop != 0; }
-void requestShutdown() { g_stop = 1; }
 
 }  // namespace depowder::node

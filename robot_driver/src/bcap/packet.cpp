@@ -289,12 +289,6 @@ Variant Variant::i4(std::int32_t v) {
   x.ints = {v};
   return x;
 }
-Variant Variant::ui1(std::uint8_t v) {
-  Variant x;
-  x.type = VT_UI1;
-  x.ints = {v};
-  return x;
-}
 Variant Variant::ui4(std::uint32_t v) {
   Variant x;
   x.type = VT_UI4;
@@ -344,13 +338,6 @@ Variant Variant::bytes(const std::vector<std::uint8_t>& v) {
   x.type = VT_UI1;
   x.array = true;
   x.ints.assign(v.begin(), v.end());
-  return x;
-}
-Variant Variant::bstrArray(const std::vector<std::string>& utf8) {
-  Variant x;
-  x.type = VT_BSTR;
-  x.array = true;
-  for (const auto& s : utf8) x.strings.push_back(toUtf16(s));
   return x;
 }
 Variant Variant::variants(const std::vector<Variant>& v) {
@@ -411,11 +398,6 @@ std::optional<std::vector<double>> Variant::asReals() const {
       for (double& x : out) x /= 1e4;
     return out;
   }
-  return std::nullopt;
-}
-
-std::optional<std::vector<std::int64_t>> Variant::asInts() const {
-  if (isInteger() && type != VT_CY) return ints;
   return std::nullopt;
 }
 

@@ -100,7 +100,6 @@ class CollisionWorld {
   /// (margin arm_margin, plus the part's margin), the nozzle as in checkNozzle, and the
   /// nozzle against the base, turret, upper arm and elbow (self collision).
   Contact checkArm(const robot::Joints& q, const CheckOptions& options = {}) const;
-  bool hasArm() const;
   /// The arm model (throws std::logic_error if there is none).
   const robot::ArmConfig& arm() const;
 

@@ -110,7 +110,6 @@ class Driver {
   /// Called after every successful slvMove exchange with its CLOCK_MONOTONIC time (benchmarks).
   void setExchangeHook(std::function<void(std::int64_t mono_ns)> hook) { exchange_hook_ = std::move(hook); }
   /// CLOCK_MONOTONIC time of the last estop(true) call and of the loop noticing it.
-  std::int64_t lastEstopNs() const { return estop_ns_.load(); }
 
  private:
   bool connectAndEnable();
@@ -136,7 +135,6 @@ class Driver {
   std::string planner_mismatch_;   ///< why the last planner heartbeat did not count ("" it did)
   std::atomic<bool> estop_latched_{false};
   std::atomic<std::int64_t> estop_events_{0};  ///< estop(true) calls; the loop handles each one
-  std::atomic<std::int64_t> estop_ns_{0};
   DriverStatus status_;
   Joints q_command_shared_{};
 

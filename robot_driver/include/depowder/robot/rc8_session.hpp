@@ -72,7 +72,6 @@ class Rc8Session {
 
   bool isOpen() const { return open_; }
   bool inSlaveMode() const { return slave_; }
-  const bcap::Client& actClient() const { return act_; }
 
  private:
   SessionResult connectChannel(bcap::Client& c, std::uint32_t* controller, std::uint32_t* robot);

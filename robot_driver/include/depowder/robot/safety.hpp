@@ -45,7 +45,6 @@ class CommandLimiter {
 
   const Joints& last() const { return q_; }
   const Joints& velocity() const { return v_; }
-  std::int64_t clippedCount() const { return clipped_; }
 
  private:
   ArmConfig arm_;
@@ -53,7 +52,6 @@ class CommandLimiter {
   double tol_;
   Joints q_{};
   Joints v_{};
-  std::int64_t clipped_ = 0;
 };
 
 enum class StopReason {

@@ -120,7 +120,6 @@ class TrajectoryGenerator {
   TrajectorySample step();
 
   const TrajectorySample& current() const { return sample_; }
-  bool atRest() const { return speed_ == 0.0 && !hasPath(); }
   /// Time a controlled stop started now would take, s: whole cycles, an upper estimate.
   double brakingTime() const;
   bool stopping() const { return stopping_; }

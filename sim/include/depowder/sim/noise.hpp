@@ -26,7 +26,6 @@ void makeDepthImage(const DepthRasterizer& raster, const CameraModel& camera, do
                     DepthImage& out);
 
 /// Range sigma (m) of the model at range r (m).
-inline double rangeSigma(const DepthNoise& n, double range) { return n.sigma_base + n.sigma_per_m * range; }
 
 /// Probability of a grazing drop-out at incidence angle `incidence_deg`.
 double grazingDropoutProbability(const DepthNoise& n, double incidence_deg);

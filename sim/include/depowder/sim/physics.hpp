@@ -97,13 +97,10 @@ class Physics {
   void step(double dt, const StepInput& input);
 
   Pose pose(std::size_t part) const;
-  Eigen::Vector3d linearVelocity(std::size_t part) const;   ///< m/s of the centre of mass
-  Eigen::Vector3d angularVelocity(std::size_t part) const;  ///< rad/s
   /// The nozzle or a link touched the part during the last step.
   bool touching(std::size_t part) const;
   const MassProperties& massProperties(std::size_t part) const;
   const std::vector<ConvexPiece>& pieces(std::size_t part) const;
-  const PowderSupport& powderSupport(std::size_t part) const;
   const PhysicsStats& stats() const;
   const PhysicsConfig& config() const;
 

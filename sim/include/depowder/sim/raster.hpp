@@ -43,7 +43,6 @@ class DepthRasterizer {
   const std::vector<float>& inverseDepth() const { return inv_depth_; }
   /// Per pixel, range / z along its ray (|(x/z, y/z, 1)|); computed when the intrinsics change.
   const std::vector<float>& rangePerDepth() const { return range_per_depth_; }
-  std::int64_t trianglesDrawn() const { return triangles_drawn_; }
 
  private:
   void drawCameraFrame(const std::vector<Eigen::Vector3f>& cam, const std::uint32_t* indices, std::size_t count,
@@ -60,7 +59,6 @@ class DepthRasterizer {
   double ray_fx_ = 0, ray_fy_ = 0, ray_cx_ = 0, ray_cy_ = 0;  ///< intrinsics range_per_depth_ was made for
   std::vector<Eigen::Vector3f> scratch_;                      ///< camera-frame vertices of the current mesh
   std::vector<std::uint32_t> index_scratch_;
-  std::int64_t triangles_drawn_ = 0;
 };
 
 }  // namespace depowder::sim

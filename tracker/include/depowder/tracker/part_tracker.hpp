@@ -92,7 +92,6 @@ class PartTracker {
   bool started() const { return started_; }           ///< left Phase 1
   const SurfaceSamples& cad() const { return cad_; }  ///< P_cad, part frame
   const Indices& templateIndices() const { return template_; }
-  Cloud templatePoints() const { return gather(cad_.points, template_); }  ///< part frame
   int templateVersion() const { return template_version_; }
 
  private:

@@ -7,7 +7,5 @@ namespace depowder::node {
 void installShutdownHandlers();
 /// True once SIGINT or SIGTERM has arrived.
 bool shutdownRequested();
-/// Sets the flag by hand (tests, fatal errors in a worker).
-void requestShutdown();
 
 }  // namespace depowder::node

@@ -63,7 +63,6 @@ class Client {
   CallResult call(std::uint32_t function, const std::vector<Variant>& args, const std::string& what = "");
 
   /// The serial number the next request will carry (1..0xFFFF, never 0).
-  std::uint16_t nextSerial() const { return serial_; }
   /// Replies discarded because their serial did not match (late replies to timed-out requests).
   std::int64_t staleReplies() const { return stale_replies_; }
   /// "Still executing" replies seen.

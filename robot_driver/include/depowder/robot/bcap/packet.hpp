@@ -98,7 +98,6 @@ struct Variant {
   static Variant empty();
   static Variant i2(std::int16_t v);
   static Variant i4(std::int32_t v);
-  static Variant ui1(std::uint8_t v);
   static Variant ui4(std::uint32_t v);
   /// A handle (controller, robot, variable) as DENSO's clients send it and the controller returns it: VT_I4.
   static Variant handle(std::uint32_t h);
@@ -109,7 +108,6 @@ struct Variant {
   static Variant i4Array(const std::vector<std::int32_t>& v);
   static Variant r8Array(const std::vector<double>& v);
   static Variant bytes(const std::vector<std::uint8_t>& v);
-  static Variant bstrArray(const std::vector<std::string>& utf8);
   static Variant variants(const std::vector<Variant>& v);
 
   /// Element count on the wire (1 for a scalar, also for EMPTY).
@@ -125,8 +123,6 @@ struct Variant {
   std::optional<std::string> asString() const;
   /// Numbers of an array (or a scalar) of an integer or real type.
   std::optional<std::vector<double>> asReals() const;
-  /// Integers of an integer array (or scalar).
-  std::optional<std::vector<std::int64_t>> asInts() const;
 
   bool operator==(const Variant& o) const;
   bool operator!=(const Variant& o) const { return !(*this == o); }

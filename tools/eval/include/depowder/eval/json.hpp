@@ -39,12 +39,8 @@ class Json {
     return a;
   }
 
-  Type type() const { return type_; }
   bool isNull() const { return type_ == Type::kNull; }
   bool isNumber() const { return type_ == Type::kNumber; }
-  bool isString() const { return type_ == Type::kString; }
-  bool isArray() const { return type_ == Type::kArray; }
-  bool isObject() const { return type_ == Type::kObject; }
 
   /// Appends to an array.
   Json& push(Json value);
@@ -56,7 +52,6 @@ class Json {
   const Json& at(const std::string& key) const;
   const Json& at(std::size_t i) const;
   std::size_t size() const;  ///< elements of an array or members of an object
-  const std::vector<std::pair<std::string, Json>>& members() const { return object_; }
   const std::vector<Json>& elements() const { return array_; }
 
   bool boolean() const;

@@ -73,7 +73,6 @@ class FrameSource {
   /// `T_cell_nozzle`, the proxy's self-filter removes the nozzle's points, as ROBOT_STATE has it do
   /// in the cell; without, the nozzle stays in the scan (the paper's interference).
   Cloud capture(sim::World& world, const Pose* T_cell_nozzle = nullptr);
-  std::int64_t framesDropped() const { return proxy_.counters().dropped(); }
 
  private:
   perception::CameraProxy proxy_;
