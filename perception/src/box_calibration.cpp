@@ -191,7 +191,6 @@ BoxCalibration calibrateAgainstBox(const Cloud& camera_points, const Pose& T_ini
   out.points = n;
   const std::vector<Face> faces = boxFaces(box_size, wall, out.powder_level);
   out.median_after = median(distances(camera_points, T, faces, config.start_gate));
-  out.rms_after = std::sqrt(sum_r2 / static_cast<double>(n));
 
   // How well the points pin each direction: sigma^2 (J^T J)^-1, the pose block after the level.
   const double sigma2 =

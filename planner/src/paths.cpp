@@ -128,10 +128,8 @@ struct Pusher {
   double standoff;
   double tolerance;
   V2 centre;
-  int queries = 0;
 
   double distanceAt(const V2& p, AxisDistanceField::Result* out = nullptr) {
-    ++queries;
     const auto d = field.query(p.x(), p.y(), eval_z, eval_z + axis_length, 3 * standoff);
     if (out) *out = d;
     return d.distance;
@@ -257,7 +255,6 @@ LoopResult finishLoop(const PartShape& part, const Pose& T_cell_part, Loop2 seed
   }
   std::vector<double> distance(pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) distance[i] = pusher.push(pts[i], 4);
-  r.distance_queries = pusher.queries;
   if (pts.size() < 3) {
     r.status = PathStatus::kNoPath;
     r.reason = "the loop collapsed to " + std::to_string(pts.size()) + " points";

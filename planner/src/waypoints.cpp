@@ -130,7 +130,6 @@ RefinedPath refinePath(const CollisionWorld& world, const Cloud& tips, Tool tool
         r.unreachable_indices.push_back(static_cast<int>(i));
       } else {
         ++r.dropped;
-        r.dropped_indices.push_back(static_cast<int>(i));
         if (r.first_contact.empty()) r.first_contact = contact.what;
       }
       continue;

@@ -362,7 +362,6 @@ TrajectorySample TrajectoryGenerator::step() {
   s.q = position();
   for (int i = 0; i < 6; ++i) s.qd[i] = (s.q[i] - last_q_[i]) / cfg_.cycle_s;
   last_q_ = s.q;
-  s.path_speed = speed_;
   s.tool = tool_;
   s.plan_id = plan_id_;
   s.moving = speed_ > 0 || hasPath();

@@ -338,7 +338,6 @@ void Physics::step(double dt, const StepInput& in) {
     if (m.nozzle.in_world) m.nozzle.motion.T = toBt(interpolate(m.nozzle.T_last, in.T_cell_nozzle, a));
     for (std::size_t k = 0; k < m.links.size(); ++k)
       if (m.links[k].in_world) m.links[k].motion.T = toBt(interpolate(m.links[k].T_last, in.T_cell_links[k], a));
-    int buried = 0;
     for (std::size_t i = 0; i < m.parts.size(); ++i) {
       Impl::Part& p = m.parts[i];
       if (p.scripted) {
@@ -352,11 +351,9 @@ void Physics::step(double dt, const StepInput& in) {
                          toEigen(body.getAngularVelocity()), toEigen(g) * h, h);
       body.setLinearVelocity(toBt(r.v));
       body.setAngularVelocity(toBt(r.w));
-      buried += r.buried;
     }
     m.world.stepSimulation(h, 0, h);
     ++m.stats.substeps;
-    m.stats.buried_samples = buried;
     for (int k = 0; k < m.dispatcher.getNumManifolds(); ++k) {
       const btPersistentManifold* mf = m.dispatcher.getManifoldByIndexInternal(k);
       const btCollisionObject *a0 = mf->getBody0(), *a1 = mf->getBody1();

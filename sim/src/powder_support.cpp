@@ -154,7 +154,6 @@ PowderSupport::Result PowderSupport::solve(const Pose& T_cell_body, const Eigen:
       continue;
     }
     ++out.buried;
-    out.depth_max = std::max(out.depth_max, depth);
     Row row;
     row.k = k;
     const double sigma_a = rho_g * depth * samples_[k].area;  // N

@@ -97,7 +97,6 @@ PclFrame PclTracker::track(const Cloud& scan) {
       PclCloud aligned;
       m.icp.align(aligned, m.T.matrix().cast<float>());
       out.register_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      out.icp_ran = true;
       out.converged = m.icp.hasConverged();
       Pose T(m.icp.getFinalTransformation().cast<double>());
       T.linear() = orthonormalized(T.linear());

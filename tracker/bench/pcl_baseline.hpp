@@ -16,7 +16,6 @@ namespace depowder::tracker::bench {
 
 struct PclFrame {
   Pose T_cell_part = Pose::Identity();
-  bool icp_ran = false;
   bool converged = false;
   int iterations = 0;      ///< not exposed by pcl::IterativeClosestPoint: 0
   double ms = 0;           ///< wall time of the whole frame

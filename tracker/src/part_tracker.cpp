@@ -274,7 +274,6 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (non_finite > 0)
     return finish(refuse(r, std::to_string(non_finite) + " of " + std::to_string(scan.size()) +
                                 " scan points are NaN or infinite: frame refused"));
-  r.scan_points = crop_.size();
   if (crop_.size() < static_cast<std::size_t>(config_.min_scan_points))
     return finish(refuse(r, "only " + std::to_string(crop_.size()) + " scan points within " +
                                 fixed(config_.crop_margin * 100, 1) + " cm of the part (need " +

@@ -101,7 +101,6 @@ void SceneModel::onProgress(const progress_t& msg) {
   p.phase = msg.phase;
   p.eta = msg.eta;
   p.progress_status = msg.status;
-  p.progress_reason = msg.status_reason;
   p.contour.clear();
   for (const auto& c : msg.contour) {
     const Eigen::Vector3d v(c[0], c[1], c[2]);

@@ -146,9 +146,7 @@ SpeedResult runSpeed(const EvalCell& cell, const std::vector<EvalPart>& parts,
         rows[m].part = part.name;
         rows[m].method = tracker::toString(methods[m]);
         rows[m].visibility = visibility;
-        rows[m].min_trans_tried_cm_s = o.linear_factors.front() * o.linear_base * 100;
         rows[m].max_trans_tried_cm_s = o.linear_factors.back() * o.linear_base * 100;
-        rows[m].min_rot_tried_deg_s = o.turntable_factors.front() * o.turntable_base_deg;
         rows[m].max_rot_tried_deg_s = o.turntable_factors.back() * o.turntable_base_deg;
       }
       int trials_done = 0;

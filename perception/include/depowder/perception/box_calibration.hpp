@@ -29,7 +29,6 @@ struct BoxCalibration {
   Pose T_cell_camera = Pose::Identity();              ///< the refined extrinsics
   double powder_level = 0;                            ///< m, the powder surface's height found with them
   std::size_t points = 0;                             ///< points within the final gate
-  double rms_after = 0;                               ///< m, their RMS distance to the box at the refined pose
   double median_before = 0;                           ///< m, median distance to the box of the points within
   double median_after = 0;                            ///< start_gate of it, at the first guess and refined
   Eigen::Vector3d sigma_t = Eigen::Vector3d::Zero();  ///< m, how well the points pin x, y, z (cell axes)

@@ -32,11 +32,10 @@ struct LoopResult {
   PathStatus status = PathStatus::kNoPath;
   std::string reason;  ///< what went wrong, when status != kOk
   LoopSource source = LoopSource::kContour;
-  double height = 0;         ///< m, tip height of the loop (cell z)
-  Cloud tips;                ///< closed loop (last == first), direction per config, cell frame
-  double min_standoff = 0;   ///< m, smallest nozzle-axis distance to the part over the loop
-  double max_standoff = 0;   ///< m, largest
-  int distance_queries = 0;  ///< FCL distance calls spent
+  double height = 0;        ///< m, tip height of the loop (cell z)
+  Cloud tips;               ///< closed loop (last == first), direction per config, cell frame
+  double min_standoff = 0;  ///< m, smallest nozzle-axis distance to the part over the loop
+  double max_standoff = 0;  ///< m, largest
   bool ok() const { return status == PathStatus::kOk; }
 };
 

@@ -44,7 +44,6 @@ struct PathReport {
   int dropped = 0;                       ///< dropped: collision even after max_push
   int unreachable = 0;                   ///< dropped: no IK solution within the joint limits
   std::vector<int> unreachable_indices;  ///< input indices IK could not reach
-  std::vector<int> dropped_indices;      ///< input indices dropped for collision
   int cuts = 0;                          ///< edges that could not be run (pieces - 1)
   std::string first_contact;             ///< what the first dropped waypoint hit
   std::string summary() const;           ///< e.g. "2 pushed, 1 dropped (nozzle-wall:+x), 0 unreachable"

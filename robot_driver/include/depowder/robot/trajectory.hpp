@@ -96,9 +96,8 @@ PreparedPlan preparePlan(const ArmConfig& arm, const TrajectoryConfig& cfg, cons
 
 /// One cycle's command.
 struct TrajectorySample {
-  Joints q{};             ///< rad, position to command
-  Joints qd{};            ///< rad/s
-  double path_speed = 0;  ///< path parameter speed (1 = the fastest joint at its planning limit)
+  Joints q{};   ///< rad, position to command
+  Joints qd{};  ///< rad/s
   Tool tool = Tool::kOff;
   std::int64_t plan_id = -1;
   int waypoint_index = -1;  ///< next waypoint of the plan (-1 without a plan)

@@ -60,9 +60,8 @@ struct Motion {
 Pose motionPose(const Motion& motion, const Pose& T_start, const Eigen::Vector2d& centre, double t);
 
 struct PhysicsStats {
-  long substeps = 0;       ///< since the start
-  int buried_samples = 0;  ///< in the last substep, all parts
-  int hulls = 0;           ///< convex pieces of all parts
+  long substeps = 0;  ///< since the start
+  int hulls = 0;      ///< convex pieces of all parts
 };
 
 class Physics {

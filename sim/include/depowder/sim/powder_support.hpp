@@ -86,7 +86,6 @@ class PowderSupport {
     Eigen::Vector3d v = Eigen::Vector3d::Zero();  ///< m/s, new velocity of the centre of mass, without dv_free
     Eigen::Vector3d w = Eigen::Vector3d::Zero();  ///< rad/s
     int buried = 0;                               ///< samples below the powder surface
-    double depth_max = 0;                         ///< m, deepest sample
   };
   /// One substep of h seconds for the body posed at T_cell_body moving at v, w (cell frame): its
   /// velocity after the powder's impulses, given that the other forces (gravity) change it by dv_free

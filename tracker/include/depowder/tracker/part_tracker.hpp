@@ -53,7 +53,6 @@ struct TrackResult {
   bool falling = false;                 ///< ...and as falling: its tip noise is open (FilterConfig::fall_sink)
   int template_version = 0;             ///< increments when the template changes
   std::size_t template_size = 0;        ///< CAD samples in the template
-  std::size_t scan_points = 0;          ///< scan points in the crop around the part
   UpdateDecision update;                ///< the policy's decision this frame (when ICP ran)
   SightCheck sight;                     ///< P_cad at the reported pose against the cameras' lines of sight
                                         ///< (when the refit ran: eta >= refit_min_eta, on a frame the

@@ -46,7 +46,6 @@ struct PartScene {
   std::int8_t phase = 0;  ///< progress_t::PHASE_*, 0 = not heard yet
   double eta = 0;
   std::int8_t progress_status = 0;
-  std::string progress_reason;
   std::vector<Eigen::Vector3d> contour;  ///< closed polyline, cell frame
 
   // SIM_TRUTH (evaluation only; shown faint).

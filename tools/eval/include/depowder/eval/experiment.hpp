@@ -123,9 +123,9 @@ struct SpeedRow {
   double max_trans_speed_cm_s = 0;
   double max_rot_speed_deg_s = 0;
   std::vector<double> trial_trans_speed_cm_s, trial_rot_speed_deg_s;
-  SpeedCurve trans_curve, rot_curve;                          ///< per speed of the list
-  double min_trans_tried_cm_s = 0, max_trans_tried_cm_s = 0;  ///< the list's range
-  double min_rot_tried_deg_s = 0, max_rot_tried_deg_s = 0;
+  SpeedCurve trans_curve, rot_curve;  ///< per speed of the list
+  double max_trans_tried_cm_s = 0;    ///< the list's fastest
+  double max_rot_tried_deg_s = 0;
 };
 
 struct MovingOptions {
