@@ -243,6 +243,22 @@ bool PartTracker::refit(const SightImages& images, const Surface& scan, double m
   return true;
 }
 
+void PartTracker::updateMotionState() {
+  // Still or moving: how far the part went over the last moving_frames frames. A turn opens
+  // the turn noise; a slide opens it from the threshold to moving_full times it.
+  const FilterConfig& f = config_.filter;
+  recent_.push_back(T_cell_part_);
+  if (recent_.size() > static_cast<std::size_t>(f.moving_frames) + 1) recent_.pop_front();
+  const double slide = translationDistance(recent_.front(), recent_.back());
+  const bool turned = rotationDistanceDeg(recent_.front(), recent_.back()) > f.moving_rotation_deg;
+  moving_ = turned || slide > f.moving_translation;
+  falling_ = f.fall_tilt_deg > 0 && recent_.front().translation().z() - recent_.back().translation().z() > f.fall_sink;
+  const double full = f.moving_full * f.moving_translation;
+  turn_open_ = !moving_                  ? 0
+               : turned || slide >= full ? 1
+                                         : (slide - f.moving_translation) / (full - f.moving_translation);
+}
+
 TrackResult PartTracker::track(const Cloud& scan) { return track(scan, config_.viewpoints); }
 
 void PartTracker::predictMotion(const Pose& delta) {
@@ -387,20 +403,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (!reset) T_cell_part_ = reg.T_target_source;
   if (filter) {
     if (!reset) information_ = prior.information + reg.information / config_.filter.data_inflation;
-    // Still or moving: how far the part went over the last moving_frames frames. A turn opens
-    // the turn noise; a slide opens it from the threshold to moving_full times it.
-    const FilterConfig& f = config_.filter;
-    recent_.push_back(T_cell_part_);
-    if (recent_.size() > static_cast<std::size_t>(f.moving_frames) + 1) recent_.pop_front();
-    const double slide = translationDistance(recent_.front(), recent_.back());
-    const bool turned = rotationDistanceDeg(recent_.front(), recent_.back()) > f.moving_rotation_deg;
-    moving_ = turned || slide > f.moving_translation;
-    falling_ =
-        f.fall_tilt_deg > 0 && recent_.front().translation().z() - recent_.back().translation().z() > f.fall_sink;
-    const double full = f.moving_full * f.moving_translation;
-    turn_open_ = !moving_                  ? 0
-                 : turned || slide >= full ? 1
-                                           : (slide - f.moving_translation) / (full - f.moving_translation);
+    updateMotionState();
   }
   r.moving = moving_;
   r.falling = falling_;

@@ -140,6 +140,7 @@ class PartTracker {
   bool fits_disagreed_ = true;  ///< the last check's two fits differed beyond reset_deg / 2 or reset_m, or its
                                 ///< free fit was doubtful
   void resetInformation();
+  void updateMotionState();          ///< moving_, falling_ and turn_open_ from the poses tracked last
   Vector6d processVariance() const;  ///< a pushed part's, per frame (PosePrior's coordinates)
   bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
                      const Matrix6d& prior_information);
