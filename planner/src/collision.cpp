@@ -32,29 +32,6 @@ PartShape::PartShape(std::string name, Mesh mesh)
 
 PartShape::~PartShape() = default;
 
-PartShape::AxisDistance PartShape::axisDistance(const Pose& T_cell_part, const Point& tip, double length) const {
-  // The axis as a capsule of negligible radius: FCL's GJK then gives the segment distance.
-  constexpr double kRadius = 1e-5;
-  auto axis = std::make_shared<fcl::Capsuled>(kRadius, length);
-  Pose T_cell_axis = Pose::Identity();
-  T_cell_axis.translation() = tip + Point(0, 0, 0.5 * length);
-  const FclObject a(axis, T_cell_axis);
-  const FclObject b(impl_->bvh, T_cell_part);
-  fcl::DistanceRequestd request(true);
-  fcl::DistanceResultd result;
-  fcl::distance(&a, &b, request, result);
-  AxisDistance d;
-  d.distance = result.min_distance + kRadius;
-  d.on_axis = result.nearest_points[0];
-  d.on_part = result.nearest_points[1];
-  if (d.distance > 0) {
-    // Put the axis point on the axis itself (FCL returns it on the capsule surface).
-    const double z = std::clamp(d.on_axis.z(), tip.z(), tip.z() + length);
-    d.on_axis = Point(tip.x(), tip.y(), z);
-  }
-  return d;
-}
-
 // ---------------------------------------------------------------------------------------------
 // CollisionWorld
 

@@ -43,22 +43,6 @@ Eigen::Matrix<double, 6, 1> poseError(const Pose& target, const Pose& T) {
   return e;
 }
 
-// Geometric Jacobian of the flange origin in the base frame.
-Eigen::Matrix<double, 6, 6> jacobianFlange(const Joints& q) {
-  const std::vector<Pose> links = linkPoses(q);
-  const Eigen::Vector3d p_end = links[6].translation();
-  Eigen::Matrix<double, 6, 6> J;
-  // Joint axes: J1 z, J2 y, J3 y, J4 z, J5 y, J6 z, each in its own (child) link frame.
-  const int axis[6] = {2, 1, 1, 2, 1, 2};
-  for (int i = 0; i < 6; ++i) {
-    const Eigen::Vector3d z = links[i + 1].linear().col(axis[i]);
-    const Eigen::Vector3d p = links[i + 1].translation();
-    J.block<3, 1>(0, i) = z.cross(p_end - p);
-    J.block<3, 1>(3, i) = z;
-  }
-  return J;
-}
-
 }  // namespace
 
 std::vector<Pose> linkPoses(const Joints& q) {
@@ -188,18 +172,18 @@ std::optional<Joints> inverseNozzle(const ArmConfig& arm, const Pose& T_cell_noz
   return best;
 }
 
-Eigen::Matrix<double, 6, 6> jacobianNozzle(const ArmConfig& arm, const Joints& q) {
-  Eigen::Matrix<double, 6, 6> J = jacobianFlange(q);
-  const Pose T_base_flange = forwardFlange(q);
-  // Move the reference point from the flange to the nozzle tip, then rotate into the cell frame.
-  const Eigen::Vector3d lever = T_base_flange.linear() * arm.T_flange_nozzle.translation();
+Eigen::Matrix<double, 6, 6> jacobianFlange(const Joints& q) {
+  const std::vector<Pose> links = linkPoses(q);
+  const Eigen::Vector3d p_end = links[6].translation();
+  Eigen::Matrix<double, 6, 6> J;
+  // Joint axes: J1 z, J2 y, J3 y, J4 z, J5 y, J6 z, each in its own (child) link frame.
+  const int axis[6] = {2, 1, 1, 2, 1, 2};
   for (int i = 0; i < 6; ++i) {
-    const Eigen::Vector3d w = J.block<3, 1>(3, i);
-    J.block<3, 1>(0, i) += w.cross(lever);
+    const Eigen::Vector3d z = links[i + 1].linear().col(axis[i]);
+    const Eigen::Vector3d p = links[i + 1].translation();
+    J.block<3, 1>(0, i) = z.cross(p_end - p);
+    J.block<3, 1>(3, i) = z;
   }
-  const Eigen::Matrix3d R = arm.T_cell_base.linear();
-  J.topRows<3>() = R * J.topRows<3>();
-  J.bottomRows<3>() = R * J.bottomRows<3>();
   return J;
 }
 

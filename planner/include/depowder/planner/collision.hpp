@@ -29,15 +29,6 @@ class PartShape {
   /// Surface samples (part frame, about 3 mm apart), for footprints and height maps.
   const Cloud& samples() const { return samples_; }
 
-  /// Shortest distance from a vertical nozzle axis (the segment from `tip` up to
-  /// tip + length z) to the part at T_cell_part: the vacuum path's stand-off.
-  struct AxisDistance {
-    double distance = 0;  ///< m (<= 0: the axis touches the part)
-    Point on_part;        ///< nearest point on the part surface (cell frame)
-    Point on_axis;        ///< nearest point on the axis segment (cell frame)
-  };
-  AxisDistance axisDistance(const Pose& T_cell_part, const Point& tip, double length) const;
-
   struct Impl;
   const Impl& impl() const { return *impl_; }
 

@@ -61,9 +61,9 @@ std::vector<Joints> inverseFlangeAll(const ArmConfig& arm, const Pose& T_base_fl
 /// sum_i w_i (a_i - b_i)^2 with the arm's IK weights.
 double jointDistance(const ArmConfig& arm, const Joints& a, const Joints& b);
 
-/// Geometric Jacobian of the nozzle tip in the cell frame: rows 0..2 linear (m/rad), rows 3..5
-/// angular (rad/rad).
-Eigen::Matrix<double, 6, 6> jacobianNozzle(const ArmConfig& arm, const Joints& q);
+/// Geometric Jacobian of the flange origin in the base frame (inverseNozzle's refinement):
+/// rows 0..2 linear (m/rad), rows 3..5 angular (rad/rad).
+Eigen::Matrix<double, 6, 6> jacobianFlange(const Joints& q);
 
 /// A capsule (segment p0-p1 swept by a sphere of `radius`) fixed to one link frame.
 struct LinkCapsule {
