@@ -231,10 +231,12 @@ Mesh loadMesh(const std::string& path, double scale) {
   if (data.empty()) fail(path, "file is empty");
   Mesh mesh;
   if (ext == "stl") {
-    mesh = looksLikeBinaryStl(data) ? parseBinaryStl(path, data)
-           : data.rfind("solid", 0) == 0
-               ? parseAsciiStl(path, data)
-               : (fail(path, "neither a binary STL (size mismatch) nor an ascii one"), Mesh{});
+    if (looksLikeBinaryStl(data))
+      mesh = parseBinaryStl(path, data);
+    else if (data.rfind("solid", 0) == 0)
+      mesh = parseAsciiStl(path, data);
+    else
+      fail(path, "neither a binary STL (size mismatch) nor an ascii one");
   } else if (ext == "obj") {
     mesh = parseObj(path, data);
   } else if (ext == "ply") {
