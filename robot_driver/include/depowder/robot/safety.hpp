@@ -71,8 +71,8 @@ struct SafetyInputs {
   std::int64_t plan_utime = 0;                       ///< utime of the executing plan
   double heartbeat_age_s = 1e9;                      ///< s since the last planner heartbeat (1e9: never)
   Eigen::Vector3d nozzle = Eigen::Vector3d::Zero();  ///< commanded nozzle position, cell frame
-  double stop_lead_s =
-      0;  ///< s, braking + two cycles + the arm's follow lag: stop this early so it is at rest by the limit
+  /// s, braking + two cycles + the arm's follow lag: stop this early so it is at rest by the limit
+  double stop_lead_s = 0;
   bool was_inside = true;        ///< the previous command was inside (leaving is what stops; an arm that
                                  ///< starts outside may move back in)
   std::string planner_mismatch;  ///< why the planner's last heartbeat did not count ("": it did)
