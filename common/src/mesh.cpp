@@ -4,9 +4,10 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <map>
 #include <random>
 #include <sstream>
+
+#include "depowder/ply.hpp"
 
 namespace depowder {
 namespace {
@@ -114,115 +115,6 @@ Mesh parseObj(const std::string& path, const std::string& data) {
   return mesh;
 }
 
-// PLY, ascii or binary_little_endian: vertex x,y,z (any scalar type), face vertex_indices list.
-int plyTypeSize(const std::string& t) {
-  static const std::map<std::string, int> sizes = {{"char", 1},  {"uchar", 1},   {"int8", 1},   {"uint8", 1},
-                                                   {"short", 2}, {"ushort", 2},  {"int16", 2},  {"uint16", 2},
-                                                   {"int", 4},   {"uint", 4},    {"int32", 4},  {"uint32", 4},
-                                                   {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
-  const auto it = sizes.find(t);
-  return it == sizes.end() ? 0 : it->second;
-}
-
-double readBinaryScalar(const char*& p, const std::string& t) {
-  auto get = [&p](auto v) {
-    std::memcpy(&v, p, sizeof(v));
-    p += sizeof(v);
-    return static_cast<double>(v);
-  };
-  if (t == "char" || t == "int8") return get(std::int8_t{});
-  if (t == "uchar" || t == "uint8") return get(std::uint8_t{});
-  if (t == "short" || t == "int16") return get(std::int16_t{});
-  if (t == "ushort" || t == "uint16") return get(std::uint16_t{});
-  if (t == "int" || t == "int32") return get(std::int32_t{});
-  if (t == "uint" || t == "uint32") return get(std::uint32_t{});
-  if (t == "float" || t == "float32") return get(float{});
-  return get(double{});
-}
-
-struct PlyProperty {
-  std::string name, type, count_type;  // count_type non-empty for a list
-};
-struct PlyElement {
-  std::string name;
-  std::size_t count = 0;
-  std::vector<PlyProperty> props;
-};
-
-Mesh parsePly(const std::string& path, const std::string& data) {
-  const auto header_end = data.find("end_header");
-  if (data.rfind("ply", 0) != 0 || header_end == std::string::npos) fail(path, "not a PLY file (no ply/end_header)");
-  std::istringstream header(data.substr(0, header_end));
-  std::string line, format;
-  std::vector<PlyElement> elements;
-  while (std::getline(header, line)) {
-    std::istringstream ls(line);
-    std::string tag;
-    ls >> tag;
-    if (tag == "format") {
-      ls >> format;
-    } else if (tag == "element") {
-      PlyElement e;
-      ls >> e.name >> e.count;
-      elements.push_back(e);
-    } else if (tag == "property") {
-      if (elements.empty()) fail(path, "property before any element");
-      PlyProperty p;
-      ls >> p.type;
-      if (p.type == "list") ls >> p.count_type >> p.type;
-      ls >> p.name;
-      if (!plyTypeSize(p.type) || (!p.count_type.empty() && !plyTypeSize(p.count_type)))
-        fail(path, "unknown PLY property type in '" + line + "'");
-      elements.back().props.push_back(p);
-    }
-  }
-  const bool ascii = format == "ascii";
-  if (!ascii && format != "binary_little_endian") fail(path, "unsupported PLY format '" + format + "'");
-  std::size_t body = data.find('\n', header_end);
-  if (body == std::string::npos) fail(path, "PLY header not terminated");
-  ++body;
-
-  Mesh mesh;
-  std::istringstream text(ascii ? data.substr(body) : std::string());
-  const char* p = data.data() + body;
-  const char* end = data.data() + data.size();
-  auto scalar = [&](const std::string& type) -> double {
-    if (ascii) {
-      double v;
-      if (!(text >> v)) fail(path, "PLY body ends early");
-      return v;
-    }
-    if (p + plyTypeSize(type) > end) fail(path, "PLY body ends early");
-    return readBinaryScalar(p, type);
-  };
-  for (const PlyElement& e : elements) {
-    for (std::size_t i = 0; i < e.count; ++i) {
-      Eigen::Vector3d v = Eigen::Vector3d::Zero();
-      for (const PlyProperty& prop : e.props) {
-        if (!prop.count_type.empty()) {
-          const auto n = static_cast<std::size_t>(scalar(prop.count_type));
-          std::vector<int> idx(n);
-          for (auto& k : idx) k = static_cast<int>(scalar(prop.type));
-          if (e.name == "face" && (prop.name == "vertex_indices" || prop.name == "vertex_index")) {
-            if (n < 3) fail(path, "PLY face with fewer than 3 vertices");
-            for (std::size_t k = 1; k + 1 < n; ++k) mesh.triangles.emplace_back(idx[0], idx[k], idx[k + 1]);
-          }
-        } else {
-          const double s = scalar(prop.type);
-          if (e.name == "vertex" && prop.name == "x") v.x() = s;
-          if (e.name == "vertex" && prop.name == "y") v.y() = s;
-          if (e.name == "vertex" && prop.name == "z") v.z() = s;
-        }
-      }
-      if (e.name == "vertex") mesh.vertices.push_back(v);
-    }
-  }
-  for (const auto& t : mesh.triangles)
-    if (t.minCoeff() < 0 || t.maxCoeff() >= static_cast<int>(mesh.vertices.size()))
-      fail(path, "PLY face index out of range");
-  return mesh;
-}
-
 }  // namespace
 
 Mesh loadMesh(const std::string& path, double scale) {
@@ -240,7 +132,13 @@ Mesh loadMesh(const std::string& path, double scale) {
   } else if (ext == "obj") {
     mesh = parseObj(path, data);
   } else if (ext == "ply") {
-    mesh = parsePly(path, data);
+    try {
+      PlyData ply = parsePly(data, true);
+      mesh.vertices = std::move(ply.vertices);
+      mesh.triangles = std::move(ply.triangles);
+    } catch (const PlyError& e) {
+      fail(path, std::string("PLY: ") + e.what());
+    }
   } else {
     fail(path, "unknown extension '." + ext + "' (expected .stl, .obj or .ply)");
   }

@@ -41,6 +41,7 @@ TEST(Config, LookAtPointsTheOpticalAxis) {
 
 TEST(Config, BadKeysAndValuesNameFileKeyAndRange) {
   expectError("tracker: {}\nbogus: 1\n", {"bad.yaml", "unknown key 'bogus'"});
+  expectError("tracker: {}\n? [a, b]\n: 1\n", {"unknown key '(a list or map as a key, line 2)'"});
   expectError("box: {size: [0.4, 0.3], wall: 0.01}\n", {"bad.yaml", "'box.size'", "3 numbers"});
   expectError("box: {size: [0.4, 0.3, -1]}\n", {"'box.size'", "(0, 5]"});
   expectError("box: {wall: 0.5}\n", {"'box.wall'", "out of range", "[0, 0.2]"});

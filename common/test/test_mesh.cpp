@@ -122,6 +122,30 @@ TEST(MeshLoad, BrokenFilesNameTheFile) {
   }
 }
 
+// What the fuzzer found (test/fuzz): a list length or index that is negative, fractional or
+// beyond the file was cast to an integer unchecked (undefined), and a huge length allocated first.
+TEST(MeshLoad, PlyListLengthsAndIndicesAreChecked) {
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list char int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"-3 0 1 2\n", "a list of length -3"},
+      {"2.5 0 1 2\n", "a list of length 2.5"},
+      {"100000000 0 1 2\n", "a list of length 100000000"},
+      {"3 0 1 -2\n", "a vertex index of -2"},
+      {"3 0 1 3\n", "a vertex index out of range, 3 (in face 0 of 1)"},
+  };
+  for (const auto& [face, why] : cases) {
+    try {
+      loadMesh(tmpFile("list.ply", head + face));
+      ADD_FAILURE() << face << " loaded";
+    } catch (const MeshError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(loadMesh(tmpFile("list.ply", head + "3 0 1 2\n")).triangles.size(), 1u);
+}
+
 TEST(MeshSample, PointsLieOnTheSurfaceWithUnitNormals) {
   const Mesh m = tetra();
   const SurfaceSamples s = sampleSurface(m, 0.02, 3);

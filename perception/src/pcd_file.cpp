@@ -33,7 +33,8 @@ double fieldValue(const std::uint8_t* p, std::uint8_t datatype) {
 }
 
 // PCL 1.13's reader crashes on some malformed headers (an empty file or one without
-// FIELDS segfaults in getFieldsList, PCL issue #5854), so the header is checked here first.
+// FIELDS segfaults in getFieldsList, PCL issue #5854; a TYPE other than I, U or F asks for
+// terabytes), so the header is checked here first.
 // Returns "" if PCL can be trusted with the file, else what is wrong with it.
 std::string checkHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -87,12 +88,24 @@ std::string checkHeader(const std::string& path) {
   std::size_t point_size = 0;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     if (sizes[i] != 1 && sizes[i] != 2 && sizes[i] != 4 && sizes[i] != 8) return "header has an invalid SIZE";
+    // PCL takes any other TYPE for a field of no known type and then reads the data as garbage.
+    if (types[i] != "I" && types[i] != "U" && types[i] != "F") return "header has an invalid TYPE (I, U or F)";
+    if (types[i] == "F" && sizes[i] < 4) return "header has a float (TYPE F) of SIZE " + std::to_string(sizes[i]);
     if (counts[i] < 1) return "header has an invalid COUNT";
     point_size += static_cast<std::size_t>(sizes[i]) * static_cast<std::size_t>(counts[i]);
   }
   if (width < 1 || height < 1) return "holds no point (WIDTH or HEIGHT missing or zero)";
   if (points >= 0 && points != width * height) return "POINTS disagrees with WIDTH x HEIGHT";
   const std::size_t header_end = static_cast<std::size_t>(std::max<std::streamoff>(0, in.tellg()));
+  // PCL reads on past DATA while lines start with a header keyword, so a data line that does
+  // ("COLUMNS" alone: no fields, then a read through a wild pointer) would change the header.
+  std::string first;  // the first data line, as PCL sees it (trimmed, comments skipped)
+  while (first.empty() && std::getline(in, line))
+    if (const auto b = line.find_first_not_of(" \t\r"); b != std::string::npos && line[b] != '#')
+      first = line.substr(b, 40);
+  for (const char* key :
+       {"VERSION", "FIELDS", "COLUMNS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA"})
+    if (first.rfind(key, 0) == 0) return "a header line after DATA ('" + first + "')";
   if (data == "binary" && file_size < header_end + static_cast<std::size_t>(width * height) * point_size)
     return "binary data is shorter than its header says (" + std::to_string(file_size - header_end) + " of " +
            std::to_string(static_cast<std::size_t>(width * height) * point_size) + " bytes)";

@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
+
+#include "depowder/ply.hpp"
 
 namespace depowder::perception {
 
@@ -14,6 +18,26 @@ std::string lowerExtension(const std::string& path) {
   return ext;
 }
 }  // namespace
+
+PointFile readPly(const std::string& path) {
+  PointFile out;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    out.error = {FrameStatus::kUnreadable, path + ": cannot open the file"};
+    return out;
+  }
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  try {
+    out.points = parsePly(bytes.str(), false).vertices;
+  } catch (const PlyError& e) {
+    out.error = {FrameStatus::kUnreadable, path + ": not a readable PLY point cloud: " + e.what()};
+    return out;
+  }
+  out.width = static_cast<int>(out.points.size());
+  out.height = 1;
+  return out;
+}
 
 PointFile readPointFile(const std::string& path) {
   const std::string ext = lowerExtension(path);

@@ -122,6 +122,19 @@ TEST(PointFile, BadPlyHeaders) {
   }
 }
 
+// An element without properties takes no bytes, whatever its count (the fuzzer's 2.2e9 camera
+// elements were once read one by one, 23 s).
+TEST(PointFile, PlyElementWithoutPropertiesIsSkipped) {
+  TempDir dir;
+  write(dir.file("e.ply"),
+        "ply\nformat ascii 1.0\nelement camera 4000000000\nelement vertex 1\nproperty float x\n"
+        "property float y\nproperty float z\nend_header\n0.125 -0.5 1\n");
+  const PointFile f = readPly(dir.file("e.ply"));
+  ASSERT_TRUE(f.error.ok()) << f.error.message;
+  ASSERT_EQ(f.points.size(), 1u);
+  EXPECT_EQ(f.points[0], kPoints[0]);
+}
+
 TEST(PointFile, OrganisedAsciiPcdKeepsNaNAndShape) {
   TempDir dir;
   write(dir.file("o.pcd"),
@@ -152,6 +165,12 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
   std::string nofields = asciiPcd(1, 1, {"1 2 3"});
   nofields.erase(nofields.find("FIELDS x y z\n"), 13);
   write(dir.file("nofields.pcd"), nofields);
+  // A TYPE other than I, U or F (PCL then asked for terabytes; found by test/fuzz).
+  std::string type = asciiPcd(1, 1, {"1 2 3"});
+  type.replace(type.find("TYPE F F F"), 10, "TYPE F F 1");
+  write(dir.file("type.pcd"), type);
+  // A data line PCL takes for the header (COLUMNS alone: no fields, then a wild read; test/fuzz).
+  write(dir.file("columns.pcd"), asciiPcd(1, 1, {"COLUMNS"}));
   // Compressed data that does not decompress to its stated size.
   std::string lzf = asciiPcd(2, 1, {});
   lzf.replace(lzf.find("DATA ascii"), 10, "DATA binary_compressed");
@@ -159,8 +178,8 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
   put<std::uint32_t>(lzf, 24);
   lzf += "\x1f\x02\x03\x04\x05";
   write(dir.file("lzf.pcd"), lzf);
-  for (const std::string name :
-       {"garbage.pcd", "nox.pcd", "short.pcd", "missing.pcd", "empty.pcd", "nofields.pcd", "lzf.pcd"}) {
+  for (const std::string name : {"garbage.pcd", "nox.pcd", "short.pcd", "missing.pcd", "empty.pcd", "nofields.pcd",
+                                 "type.pcd", "columns.pcd", "lzf.pcd"}) {
     const PointFile f = readPointFile(dir.file(name));
     EXPECT_EQ(f.error.status, FrameStatus::kUnreadable) << name;
     EXPECT_NE(f.error.message.find(name), std::string::npos) << f.error.message;
@@ -172,6 +191,9 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
       << readPointFile(dir.file("short.pcd")).error.message;
   EXPECT_NE(readPointFile(dir.file("nofields.pcd")).error.message.find("no FIELDS"), std::string::npos);
   EXPECT_NE(readPointFile(dir.file("missing.pcd")).error.message.find("cannot open"), std::string::npos);
+  EXPECT_NE(readPointFile(dir.file("type.pcd")).error.message.find("invalid TYPE"), std::string::npos);
+  EXPECT_NE(readPointFile(dir.file("columns.pcd")).error.message.find("a header line after DATA ('COLUMNS')"),
+            std::string::npos);
   EXPECT_NE(readPointFile(dir.file("a.xyz")).error.message.find("not a .pcd or .ply"), std::string::npos);
 }
 

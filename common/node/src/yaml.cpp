@@ -125,7 +125,10 @@ void YamlReader::finish() const {
   if (!node_ || !node_.IsMap()) return;
   std::string unknown;
   for (const auto& kv : node_) {
-    const std::string k = kv.first.as<std::string>();
+    // A key is a name; a list or map in its place (YAML's `? [a, b]`) is never a known key.
+    const std::string k = kv.first.IsScalar()
+                              ? kv.first.Scalar()
+                              : "(a list or map as a key, line " + std::to_string(kv.first.Mark().line + 1) + ")";
     if (!used_->count(k)) unknown += (unknown.empty() ? "'" : ", '") + k + "'";
   }
   if (unknown.empty()) return;

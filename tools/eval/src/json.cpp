@@ -1,5 +1,6 @@
 #include "depowder/eval/json.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -189,8 +190,13 @@ class Parser {
     skip();
     if (i_ >= s_.size()) fail("unexpected end");
     const char c = s_[i_];
-    if (c == '{') return object();
-    if (c == '[') return array();
+    if ((c == '{' || c == '[') && depth_ >= kMaxDepth) fail("nested deeper than " + std::to_string(kMaxDepth));
+    if (c == '{' || c == '[') {
+      ++depth_;
+      Json nested = c == '{' ? object() : array();
+      --depth_;
+      return nested;
+    }
     if (c == '"') return Json(string());
     if (literal("null")) return Json();
     if (literal("true")) return Json(true);
@@ -241,8 +247,12 @@ class Parser {
           break;
         case 'u': {
           if (i_ + 4 > s_.size()) fail("short \\u escape");
-          const unsigned code = static_cast<unsigned>(std::stoul(s_.substr(i_, 4), nullptr, 16));
-          i_ += 4;
+          unsigned code = 0;
+          for (int k = 0; k < 4; ++k, ++i_) {
+            const char h = s_[i_];
+            if (!std::isxdigit(static_cast<unsigned char>(h))) fail("\\u escape with a non-hex digit");
+            code = 16 * code + static_cast<unsigned>(h <= '9' ? h - '0' : (h | 0x20) - 'a' + 10);
+          }
           if (code < 0x80) {
             out += static_cast<char>(code);
           } else if (code < 0x800) {
@@ -313,6 +323,8 @@ class Parser {
     }
   }
 
+  static constexpr int kMaxDepth = 200;  ///< each level a recursion: deeper documents are refused
+  int depth_ = 0;
   const std::string& s_;
   std::size_t i_ = 0;
 };

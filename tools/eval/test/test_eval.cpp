@@ -74,6 +74,12 @@ TEST(EvalJson, RoundTripAndErrors) {
   EXPECT_DOUBLE_EQ(back.at("rows").at(0).at("list").at(1).number(), 2.5);
   EXPECT_THROW(Json::parse("{\"a\": }"), JsonError);
   EXPECT_THROW(Json::parse("[1, 2"), JsonError);
+  EXPECT_EQ(Json::parse("\"\\u00e9\\u0041\"").string(),
+            "\xc3\xa9"
+            "A");
+  EXPECT_THROW(Json::parse("\"\\u12g4\""), JsonError);  // a non-hex digit (std::stoul threw its own)
+  EXPECT_EQ(Json::parse(std::string(200, '[') + std::string(200, ']')).size(), 1u);
+  EXPECT_THROW(Json::parse(std::string(100000, '[')), JsonError);  // not a stack overflow
   EXPECT_THROW(back.at("missing"), JsonError);
 }
 
