@@ -26,6 +26,10 @@ FrameError checkPoseAndRange(const PinholeCamera& camera) {
   return {};
 }
 
+// A depth count from a real one, clamped to [lo, hi] before the cast: casting a double beyond
+// long's range (a header's extreme but finite unit or intrinsics) or NaN is undefined.
+long countIn(double c, long lo, long hi) { return c >= lo ? (c <= hi ? static_cast<long>(c) : hi) : lo; }
+
 bool inside(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p) {
   return (p.array() >= box.min().array()).all() && (p.array() <= box.max().array()).all();
 }
@@ -160,10 +164,10 @@ void Deprojector::build(const DepthImage& image, const PinholeCamera& camera) {
         return !(z * z * n2 > max2);
       };
       const double norm = std::sqrt(n2);
-      long lo = std::clamp<long>(static_cast<long>(std::ceil(camera.min_range / (unit * norm))), 1, 65536);
+      long lo = countIn(std::ceil(camera.min_range / (unit * norm)), 1, 65536);
       while (lo > 1 && above_min(lo - 1)) --lo;
       while (lo <= 65535 && !above_min(lo)) ++lo;
-      long hi = std::clamp<long>(static_cast<long>(std::floor(camera.max_range / (unit * norm))), 0, 65535);
+      long hi = countIn(std::floor(camera.max_range / (unit * norm)), 0, 65535);
       while (hi < 65535 && below_max(hi + 1)) ++hi;
       while (hi >= 1 && !below_max(hi)) --hi;
       // Crop: the depths at which t + z ray is inside the box (slab method), widened by a count.
@@ -179,8 +183,8 @@ void Deprojector::build(const DepthImage& image, const PinholeCamera& camera) {
       }
       long clo = 1, chi = 0;  // empty
       if (z1 >= z0) {
-        clo = std::clamp<long>(static_cast<long>(std::floor(z0 / unit)) - 1, 1, 65535);
-        chi = std::clamp<long>(static_cast<long>(std::min(std::ceil(z1 / unit), 70000.0)) + 1, 0, 65535);
+        clo = countIn(std::floor(z0 / unit) - 1, 1, 65535);
+        chi = countIn(std::ceil(z1 / unit) + 1, 0, 65535);
       }
       Limits& L = limits_[static_cast<std::size_t>(v) * w + u];
       L.range_lo = static_cast<std::uint16_t>(std::min(lo, 65535L));

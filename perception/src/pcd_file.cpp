@@ -33,8 +33,9 @@ double fieldValue(const std::uint8_t* p, std::uint8_t datatype) {
 }
 
 // PCL 1.13's reader crashes on some malformed headers (an empty file or one without
-// FIELDS segfaults in getFieldsList, PCL issue #5854; a TYPE other than I, U or F asks for
-// terabytes), so the header is checked here first.
+// FIELDS segfaults in getFieldsList, PCL issue #5854, and so does a header that a line of
+// spaces ends early; a TYPE other than I, U or F asks for terabytes), so the header is
+// checked here first, read the way PCL reads it.
 // Returns "" if PCL can be trusted with the file, else what is wrong with it.
 std::string checkHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -47,11 +48,14 @@ std::string checkHeader(const std::string& path) {
   long long width = -1, height = 1, points = -1;
   std::string line, data;
   for (int n = 0; n < 64 && data.empty() && std::getline(in, line); ++n) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
     std::istringstream s(line);
     std::string key;
     s >> key;
-    if (key.empty() || key[0] == '#') continue;
+    // PCL ends its header at a line of only spaces (or a lone CR), and reads on without FIELDS.
+    if (key.empty()) return "a blank line with spaces inside the header";
+    if (key[0] == '#') continue;
+    if (line.back() == '\r') line.pop_back();
     std::string word;
     if (key == "VERSION" || key == "VIEWPOINT") continue;
     if (key == "FIELDS") {

@@ -273,3 +273,19 @@ TEST(Deprojector, MatchesDeprojectExactly) {
   same(render(scene, rig[1], 0, 0.001, &noise, &rng), rig[1]);  // 1 mm depth unit
   EXPECT_EQ(fast.rebuilds(), 3);
 }
+
+// A header that is valid but extreme (a depth unit of 1e-25 m, a range of 1e6 m): every count's
+// closed form lies far beyond a long, which was cast before it was clamped (undefined; found by
+// test/fuzz). Both deprojections still agree: the hand frame's returns are all too near.
+TEST(Deprojector, ExtremeButFiniteHeaderAgreesWithDeproject) {
+  DepthImage im = handImage();
+  PinholeCamera cam = handCamera();
+  im.depth_unit = 1e-25;
+  cam.max_range = 1e6;
+  const CameraCloud a = deproject(im, cam, kEverywhere);
+  const CameraCloud b = Deprojector(kEverywhere)(im, cam);
+  EXPECT_EQ(a.error.status, FrameStatus::kNoValidReturns);
+  EXPECT_EQ(b.error.status, FrameStatus::kNoValidReturns);
+  EXPECT_EQ(a.counts.out_of_range, 2u);
+  EXPECT_EQ(b.counts.out_of_range, 2u);
+}

@@ -171,6 +171,8 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
   write(dir.file("type.pcd"), type);
   // A data line PCL takes for the header (COLUMNS alone: no fields, then a wild read; test/fuzz).
   write(dir.file("columns.pcd"), asciiPcd(1, 1, {"COLUMNS"}));
+  // A line of spaces in the header, where PCL ends it (then reads without FIELDS; test/fuzz).
+  write(dir.file("blank.pcd"), " \n" + asciiPcd(1, 1, {"1 2 3"}));
   // Compressed data that does not decompress to its stated size.
   std::string lzf = asciiPcd(2, 1, {});
   lzf.replace(lzf.find("DATA ascii"), 10, "DATA binary_compressed");
@@ -179,7 +181,7 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
   lzf += "\x1f\x02\x03\x04\x05";
   write(dir.file("lzf.pcd"), lzf);
   for (const std::string name : {"garbage.pcd", "nox.pcd", "short.pcd", "missing.pcd", "empty.pcd", "nofields.pcd",
-                                 "type.pcd", "columns.pcd", "lzf.pcd"}) {
+                                 "type.pcd", "columns.pcd", "blank.pcd", "lzf.pcd"}) {
     const PointFile f = readPointFile(dir.file(name));
     EXPECT_EQ(f.error.status, FrameStatus::kUnreadable) << name;
     EXPECT_NE(f.error.message.find(name), std::string::npos) << f.error.message;
@@ -194,6 +196,7 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
   EXPECT_NE(readPointFile(dir.file("type.pcd")).error.message.find("invalid TYPE"), std::string::npos);
   EXPECT_NE(readPointFile(dir.file("columns.pcd")).error.message.find("a header line after DATA ('COLUMNS')"),
             std::string::npos);
+  EXPECT_NE(readPointFile(dir.file("blank.pcd")).error.message.find("blank line with spaces"), std::string::npos);
   EXPECT_NE(readPointFile(dir.file("a.xyz")).error.message.find("not a .pcd or .ply"), std::string::npos);
 }
 
