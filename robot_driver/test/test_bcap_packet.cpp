@@ -229,4 +229,16 @@ TEST(BcapPacket, RefusesUnencodable) {
   Variant scalar_variant;
   scalar_variant.type = VT_VARIANT;
   EXPECT_THROW(encode(request(1, 1, {scalar_variant})), std::invalid_argument);
+  Variant no_value;  // a scalar I4 without its value
+  no_value.type = VT_I4;
+  EXPECT_THROW(encode(request(1, 1, {no_value})), std::invalid_argument);
+}
+
+// Empty arrays are values like any other: decode() took them and encode() refused them, so a
+// packet did not survive its own round trip (found by test/fuzz).
+TEST(BcapPacket, EmptyArraysRoundTrip) {
+  const Packet p = request(1, 1, {Variant::i4Array({}), Variant::r8Array({}), Variant::variants({})});
+  const DecodeResult d = decode(encode(p));
+  ASSERT_EQ(d.status, DecodeStatus::Ok) << d.error;
+  EXPECT_TRUE(d.packet == p);
 }

@@ -106,7 +106,7 @@ void writeScalarNumber(Writer& w, std::uint16_t type, std::int64_t i, double r) 
 void writeVariant(Writer& w, const Variant& v, int depth) {
   if (depth > kMaxDepth) throw std::invalid_argument("b-CAP: VARIANT nesting too deep");
   const std::uint16_t vt = static_cast<std::uint16_t>(v.type | (v.array ? VT_ARRAY : 0));
-  const std::uint32_t n = v.count();
+  const std::uint32_t n = v.count();  // a scalar's is 1, so a scalar without its value is refused
   w.u16(vt);
   w.u32(n);
   if (v.type == VT_EMPTY || v.type == VT_NULL) {
@@ -114,7 +114,7 @@ void writeVariant(Writer& w, const Variant& v, int depth) {
     return;
   }
   if (v.type == VT_BSTR) {
-    if (v.strings.size() != n || n == 0) throw std::invalid_argument("b-CAP: BSTR without a value");
+    if (v.strings.size() != n) throw std::invalid_argument("b-CAP: BSTR without a value");
     for (const auto& s : v.strings) {
       w.u32(static_cast<std::uint32_t>(2 * s.size()));
       for (char16_t c : s) w.u16(static_cast<std::uint16_t>(c));
@@ -127,12 +127,12 @@ void writeVariant(Writer& w, const Variant& v, int depth) {
     return;
   }
   if (integerType(v.type)) {
-    if (v.ints.size() != n || n == 0) throw std::invalid_argument("b-CAP: integer VARIANT without a value");
+    if (v.ints.size() != n) throw std::invalid_argument("b-CAP: integer VARIANT without a value");
     for (std::int64_t i : v.ints) writeScalarNumber(w, v.type, i, 0);
     return;
   }
   if (realType(v.type)) {
-    if (v.reals.size() != n || n == 0) throw std::invalid_argument("b-CAP: real VARIANT without a value");
+    if (v.reals.size() != n) throw std::invalid_argument("b-CAP: real VARIANT without a value");
     for (double r : v.reals) writeScalarNumber(w, v.type, 0, r);
     return;
   }

@@ -1,0 +1,70 @@
+// The processes' logic behind the bus, on messages that decode but say anything: a sequence
+// of POINTS, PART_POSE, PROGRESS, ROBOT_STATE and NOZZLE_PLAN messages goes to the tracker,
+// progress and planner nodes of the static cube cell (config/scenarios/static.yaml), built anew
+// for each input so that a failure replays alone. Nothing may crash; what a node rejects it says.
+// Input: records of [kind byte][length, 2 bytes little-endian][the LCM message].
+#include <cstdlib>
+#include <memory>
+
+#include "depowder/node/convert.hpp"
+#include "planner_node.hpp"
+#include "progress_node.hpp"
+#include "tracker_node.hpp"
+
+using namespace depowder;
+
+namespace {
+
+struct Cell {
+  node::CellConfig cell = node::loadCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/scenarios/static.yaml");
+  tracker::TrackerNodeOptions tracker = tracker::readTrackerOptions(cell);
+  progress::ProgressNodeOptions progress = progress::readProgressOptions(cell);
+  planner::PlannerNodeOptions planner = planner::readPlannerOptions(cell);
+  Cell() { tracker.threads = 1; }  // one thread: the same input runs the same way
+};
+
+template <class T>
+bool decoded(T& msg, const std::uint8_t* data, std::size_t size) {
+  return msg.decode(data, 0, static_cast<int>(size)) >= 0;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static const Cell c;
+  tracker::TrackerNode tracker(c.cell, c.tracker);
+  progress::ProgressNode progress(c.cell, c.progress);
+  planner::PlannerNode planner(c.cell, c.planner);
+  std::int64_t now_us = 1'000'000;
+  while (size >= 3) {
+    const std::uint8_t kind = data[0] % 5;
+    const std::size_t n = std::min<std::size_t>(size - 3, data[1] | data[2] << 8);
+    const std::uint8_t* msg = data + 3;
+    data += 3 + n, size -= 3 + n;
+    now_us += 33'000;
+    if (kind == 0) {
+      point_cloud_t m;
+      if (!decoded(m, msg, n)) continue;
+      for (const part_pose_t& pose : tracker.onPoints(m)) {
+        progress.onPose(pose);
+        planner.onPose(pose);
+      }
+      if (std::optional<Cloud> cloud = node::decodeCloud(m)) progress.onPoints(m.utime, std::move(*cloud), now_us);
+    } else if (kind == 1) {
+      part_pose_t m;
+      if (decoded(m, msg, n)) progress.onPose(m), planner.onPose(m);
+    } else if (kind == 2) {
+      progress_t m;
+      if (decoded(m, msg, n)) planner.onProgress(m);
+    } else if (kind == 3) {
+      robot_state_t m;
+      if (decoded(m, msg, n)) planner.onRobot(m);
+    } else {
+      nozzle_plan_t m;
+      if (decoded(m, msg, n)) progress.onPlan(m);
+    }
+    for (const progress_t& p : progress.poll(now_us)) planner.onProgress(p);
+    planner.step();
+  }
+  return 0;
+}
