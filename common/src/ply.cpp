@@ -148,6 +148,18 @@ bool isFaceIndices(const Element& e, const Property& p) {
   return e.name == "face" && !p.list_size.empty() && (p.name == "vertex_indices" || p.name == "vertex_index");
 }
 
+// A face of n vertex indices, as a fan of triangles into `out` (its vertices read already).
+void readFace(Cursor& cursor, std::size_t n, const std::string& type, PlyData& out) {
+  if (n < 3) throw PlyError("a face with fewer than 3 vertices");
+  std::vector<int> face(n);
+  for (int& index : face) {
+    index = static_cast<int>(cursor.readIndex(type, INT_MAX, "a vertex index of"));
+    if (index >= static_cast<int>(out.vertices.size()))
+      throw PlyError("a vertex index out of range, " + std::to_string(index));
+  }
+  for (std::size_t j = 1; j + 1 < n; ++j) out.triangles.emplace_back(face[0], face[j], face[j + 1]);
+}
+
 }  // namespace
 
 PlyData parsePly(const std::string& bytes, bool faces) {
@@ -171,7 +183,6 @@ PlyData parsePly(const std::string& bytes, bool faces) {
     if (vertex && (ix < 0 || iy < 0 || iz < 0)) throw PlyError("the vertex element lacks x, y or z");
     if (vertex) out.vertices.reserve(std::min(e.count, cursor.left()));  // an item takes a byte at least
     std::vector<double> row(e.properties.size());
-    std::vector<std::size_t> face;
     for (std::size_t i = 0; i < e.count; ++i) {
       try {
         for (std::size_t k = 0; k < e.properties.size(); ++k) {
@@ -181,20 +192,10 @@ PlyData parsePly(const std::string& bytes, bool faces) {
             continue;
           }
           const std::size_t n = cursor.readIndex(p.list_size, static_cast<double>(cursor.left()), "a list of length");
-          if (!isFaceIndices(e, p)) {
+          if (faces && isFaceIndices(e, p))
+            readFace(cursor, n, p.type, out);
+          else
             for (std::size_t j = 0; j < n; ++j) cursor.read(p.type);
-            continue;
-          }
-          if (n < 3) throw PlyError("a face with fewer than 3 vertices");
-          face.clear();
-          for (std::size_t j = 0; j < n; ++j) face.push_back(cursor.readIndex(p.type, INT_MAX, "a vertex index of"));
-          for (std::size_t j = 1; j + 1 < n; ++j) {
-            const Eigen::Vector3i t(static_cast<int>(face[0]), static_cast<int>(face[j]),
-                                    static_cast<int>(face[j + 1]));
-            if (t.maxCoeff() >= static_cast<int>(out.vertices.size()))
-              throw PlyError("a vertex index out of range, " + std::to_string(t.maxCoeff()));
-            out.triangles.push_back(t);
-          }
         }
       } catch (const PlyError& err) {
         throw PlyError(std::string(err.what()) + " (in " + e.name + " " + std::to_string(i) + " of " +
