@@ -21,8 +21,8 @@
 #include "depowder/node/shutdown.hpp"
 #include "depowder/nozzle_plan_t.hpp"
 #include "depowder/robot_state_t.hpp"
-#include "depowder/waypoint_t.hpp"
 #include "driver_config.hpp"
+#include "plan_msg.hpp"
 
 using namespace depowder;
 
@@ -39,36 +39,6 @@ int usage(const std::string& error = "") {
                "  --host H      controller address (overrides robot.controller.host)\n"
                "  --port N      controller port (overrides robot.controller.port)\n";
   return error.empty() ? 0 : 2;
-}
-
-// NOZZLE_PLAN -> robot::Plan; false with `why` if a pose is not a valid pose.
-bool toPlan(const nozzle_plan_t& msg, robot::Plan* plan, std::string* why) {
-  plan->id = msg.plan_id;
-  plan->utime = msg.utime;
-  plan->waypoints.clear();
-  if (msg.num_waypoints != static_cast<std::int32_t>(msg.waypoints.size()) || msg.num_waypoints < 0) {
-    *why = "num_waypoints disagrees with the waypoints";
-    return false;
-  }
-  for (std::size_t i = 0; i < msg.waypoints.size(); ++i) {
-    const waypoint_t& w = msg.waypoints[i];
-    std::string pose_why;
-    const auto T = node::fromMsg(w.T_cell_nozzle, &pose_why);
-    if (!T) {
-      *why = "waypoint " + std::to_string(i) + ": " + pose_why;
-      return false;
-    }
-    robot::PlanWaypoint pw;
-    pw.T_cell_nozzle = *T;
-    pw.speed = w.speed;
-    if (w.tool != waypoint_t::TOOL_OFF && w.tool != waypoint_t::TOOL_VACUUM && w.tool != waypoint_t::TOOL_AIR) {
-      *why = "waypoint " + std::to_string(i) + ": unknown tool " + std::to_string(w.tool);
-      return false;
-    }
-    pw.tool = static_cast<Tool>(w.tool);
-    plan->waypoints.push_back(pw);
-  }
-  return true;
 }
 
 robot_state_t toMsg(const robot::DriverStatus& s, std::int64_t utime) {
@@ -132,7 +102,7 @@ int main(int argc, char** argv) {
     bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& msg, const std::string&) {
       robot::Plan plan;
       std::string why;
-      if (!toPlan(msg, &plan, &why)) {
+      if (!robot::fromMsg(msg, &plan, &why)) {
         heartbeat.addDropped();
         input_problem = "plan " + std::to_string(msg.plan_id) + " refused: " + why;
         input_problem_ns = robot::bcap::monotonicNs();
