@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 
 #include "depowder/mesh.hpp"
@@ -11,7 +12,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
   static const char* const kExtensions[] = {".stl", ".obj", ".ply"};
-  const std::string path = "/tmp/depowder-fuzz-" + std::to_string(::getpid()) + kExtensions[data[0] % 3];
+  const std::string path = (std::filesystem::temp_directory_path() / "depowder-fuzz-").string() +
+                           std::to_string(::getpid()) + kExtensions[data[0] % 3];
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(data + 1), size - 1);
   try {
     const depowder::Mesh mesh = depowder::loadMesh(path);

@@ -4,13 +4,15 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 
 #include "depowder/perception/point_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
-  const std::string path = "/tmp/depowder-fuzz-" + std::to_string(::getpid()) + (data[0] % 2 ? ".pcd" : ".ply");
+  const std::string path = (std::filesystem::temp_directory_path() / "depowder-fuzz-").string() +
+                           std::to_string(::getpid()) + (data[0] % 2 ? ".pcd" : ".ply");
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(data + 1), size - 1);
   const depowder::perception::PointFile scan = depowder::perception::readPointFile(path);
   ::unlink(path.c_str());
