@@ -190,8 +190,8 @@ class Parser {
     skip();
     if (i_ >= s_.size()) fail("unexpected end");
     const char c = s_[i_];
-    if ((c == '{' || c == '[') && depth_ >= kMaxDepth) fail("nested deeper than " + std::to_string(kMaxDepth));
     if (c == '{' || c == '[') {
+      if (depth_ >= kMaxDepth) fail("nested deeper than " + std::to_string(kMaxDepth));
       ++depth_;
       Json nested = c == '{' ? object() : array();
       --depth_;
