@@ -1,11 +1,15 @@
 // The `robot` section of the default cell: it loads, it is consistent, and its base pose lets
 // the nozzle reach the whole box interior pointing down (IK over a grid); bad values are refused.
+// And NOZZLE_PLAN -> Plan.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
 #include "driver_config.hpp"
+#include "plan_msg.hpp"
 
 using namespace depowder;
 using namespace depowder::robot;
@@ -110,4 +114,39 @@ TEST(DriverConfig, RefusesBadValues) {
   expectError("  workspace: {min: [0, 0, 0], max: [0.1, -0.1, 0.1]}\n", "workspace");
   expectError("  state_rate: 50\n", "state_rate");
   expectError("  tool_io: {vacuum: IO24, water: IO26}\n", "water");
+}
+
+// NOZZLE_PLAN -> Plan (plan_msg.hpp): what the driver refuses before preparePlan sees a plan.
+TEST(PlanMsg, ConvertsWaypointsAndRefusesWhatIsMalformed) {
+  nozzle_plan_t msg;
+  msg.plan_id = 7;
+  msg.utime = 123;
+  waypoint_t w;
+  w.T_cell_nozzle = node::toMsg(makePose(Eigen::Vector3d(0.1, 0, 0.2), Eigen::Quaterniond(0, 1, 0, 0)));
+  w.tool = waypoint_t::TOOL_AIR;
+  w.speed = 0.05;
+  msg.waypoints = {w, w};
+  msg.num_waypoints = 2;
+  Plan plan;
+  std::string why;
+  ASSERT_TRUE(fromMsg(msg, &plan, &why)) << why;
+  EXPECT_EQ(plan.id, 7);
+  EXPECT_EQ(plan.utime, 123);
+  ASSERT_EQ(plan.waypoints.size(), 2u);
+  EXPECT_EQ(plan.waypoints[1].tool, Tool::kAir);
+  EXPECT_DOUBLE_EQ(plan.waypoints[1].speed, 0.05);
+  EXPECT_NEAR((plan.waypoints[1].T_cell_nozzle.translation() - Eigen::Vector3d(0.1, 0, 0.2)).norm(), 0, 1e-12);
+
+  nozzle_plan_t bad = msg;
+  bad.num_waypoints = 3;
+  EXPECT_FALSE(fromMsg(bad, &plan, &why));
+  EXPECT_EQ(why, "num_waypoints disagrees with the waypoints");
+  bad = msg;
+  bad.waypoints[1].T_cell_nozzle.position[2] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(fromMsg(bad, &plan, &why));
+  EXPECT_EQ(why, "waypoint 1: pose has NaN or infinite values");
+  bad = msg;
+  bad.waypoints[0].tool = 9;
+  EXPECT_FALSE(fromMsg(bad, &plan, &why));
+  EXPECT_EQ(why, "waypoint 0: unknown tool 9");
 }
