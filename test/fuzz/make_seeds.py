@@ -1,0 +1,96 @@
+#!/usr/bin/env python3
+"""Writes test/fuzz/seeds: valid inputs the fuzz targets start from (and ctest replays).
+
+Uses lcm-gen's Python types of lcmtypes/ (generated into a temporary folder; no LCM Python
+module needed). Run from anywhere: python3 test/fuzz/make_seeds.py
+"""
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+
+here = os.path.dirname(os.path.abspath(__file__))
+root = os.path.dirname(os.path.dirname(here))
+gen = tempfile.mkdtemp()
+types = sorted(os.path.join(root, "lcmtypes", f) for f in os.listdir(os.path.join(root, "lcmtypes")) if f.endswith(".lcm"))
+subprocess.run(["lcm-gen", "-p", "--ppath", gen] + types, check=True)
+sys.path.insert(0, gen)
+from depowder import (depth_image_t, nozzle_plan_t, part_pose_t, point_cloud_t, pose_t,  # noqa: E402
+                      progress_t, robot_state_t, waypoint_t)
+
+
+def pose(xyz, wxyz=(1, 0, 0, 0)):
+    p = pose_t()
+    p.position, p.orientation = list(xyz), list(wxyz)
+    return p
+
+
+def write(kind, name, data):
+    os.makedirs(os.path.join(here, "seeds", kind), exist_ok=True)
+    with open(os.path.join(here, "seeds", kind, name), "wb") as f:
+        f.write(data)
+
+
+# An 8 x 6 depth frame from 1 m above, looking down, 0.80 to 0.81 m away.
+d = depth_image_t()
+d.utime, d.frame, d.camera, d.width, d.height = 1, 0, "LEFT", 8, 6
+d.fx = d.fy = 5.0
+d.cx, d.cy, d.min_range, d.max_range = 3.5, 2.5, 0.1, 3.0
+d.T_cell_camera = pose((0, 0, 1.0), (0, 1, 0, 0))
+d.depth_unit, d.data = 0.00025, struct.pack("<48H", *range(3200, 3248))
+d.num_bytes = len(d.data)
+# A 21 x 21 grid of points 1 cm apart at z = 2 cm, from both cameras.
+c = point_cloud_t()
+c.utime, c.seq, c.frame, c.origin, c.resolution = 1000, 0, "cell", [0, 0, 0.02], 0.0005
+c.xyz = [[i * 10, j * 10, 0] for i in range(-20, 21, 2) for j in range(-20, 21, 2)]
+c.num_points, c.num_sources, c.sources, c.source_utimes = len(c.xyz), 2, ["LEFT", "RIGHT"], [1000, 1000]
+pp = part_pose_t()
+pp.utime, pp.part, pp.method, pp.status, pp.status_reason = 1000, "cube", "cu", 1, ""
+pp.T_cell_part, pp.eta, pp.fitness, pp.inlier_ratio, pp.iterations, pp.compute_ms = pose((0, 0, 0.03)), 0.6, 0.001, 0.9, 5, 1.0
+pp.template_updated, pp.template_version, pp.template_resolution = True, 1, 0.0005
+pp.template_size, pp.template_xyz = 2, [[1, 2, 3], [4, 5, 6]]
+rs = robot_state_t()
+rs.utime, rs.mode, rs.mode_reason, rs.q, rs.qd = 1000, 0, "", [0, 0, 1.57, 0, 1.57, 0], [0] * 6
+rs.T_cell_nozzle, rs.tool, rs.plan_id, rs.waypoint_index, rs.plan_utime = pose((0, 0, 0.4)), 0, -1, 0, 0
+pr = progress_t()
+pr.utime, pr.part, pr.phase, pr.status, pr.status_reason = 1000, "cube", 2, 0, ""
+pr.eta, pr.eta_raw, pr.h_pow, pr.h_max, pr.h_min, pr.T_cell_part = 0.6, 0.6, 0.04, 0.06, 0.0, pose((0, 0, 0.03))
+pr.num_contour, pr.contour, pr.num_band, pr.band = 2, [[0.02, 0, 0.04], [-0.02, 0, 0.04]], 0, []
+
+# fuzz_lcm: [type byte][message], the type byte as fuzz_lcm.cpp's table orders them.
+for kind, name, msg in [(0, "point_cloud", c), (1, "depth_image", d), (2, "part_pose", pp), (4, "robot_state", rs),
+                        (5, "progress", pr)]:
+    write("lcm", name, bytes([kind]) + msg.encode())
+
+# fuzz_nodes: records [kind][length, 2 bytes LE][message].
+def record(kind, msg):
+    b = msg.encode()
+    return bytes([kind]) + struct.pack("<H", len(b)) + b
+
+
+pp.template_updated, pp.template_size, pp.template_xyz = False, 0, []
+write("nodes", "robot_pose_progress_points", record(3, rs) + record(1, pp) + record(2, pr) + record(0, c) + record(0, c))
+
+
+# fuzz_plan: records [cycles, 2 bytes LE][length, 2 bytes LE][nozzle_plan_t]; length 0 stops.
+def plan(plan_id, points, speed, tool):
+    m = nozzle_plan_t()
+    m.utime, m.plan_id, m.part, m.phase, m.reason = 1000, plan_id, "cube", 2, "contour"
+    m.waypoints = []
+    for xyz in points:
+        w = waypoint_t()
+        w.T_cell_nozzle, w.tool, w.speed, w.q = pose(xyz, (0, 1, 0, 0)), tool, speed, [0] * 6  # nozzle z down
+        m.waypoints.append(w)
+    m.num_waypoints = len(m.waypoints)
+    return m.encode()
+
+
+def step(cycles, data):
+    return struct.pack("<HH", cycles, len(data)) + data
+
+
+square = [(0.05, 0.05, 0.15), (-0.05, 0.05, 0.12), (-0.05, -0.05, 0.12), (0.05, -0.05, 0.15)]
+line = [(0.0, 0.0, 0.30), (0.1, 0.0, 0.2)]
+write("plan", "square_then_line", step(150, plan(1, square, 0.2, 1)) + step(60, plan(2, line, 0.25, 2)))
+write("plan", "square_stopped", step(100, plan(1, square, 0.1, 1)) + step(50, b""))
