@@ -18,17 +18,12 @@
 #include "depowder/robot_state_t.hpp"
 #include "depowder/sim_truth_t.hpp"
 #include "depth_msg.hpp"
+#include "fuzz.hpp"
 
 using namespace depowder;
+using fuzz::decoded;
 
 namespace {
-
-template <class T>
-bool decoded(T& msg, const std::uint8_t* data, std::size_t size) {
-  const int n = msg.decode(data, 0, static_cast<int>(size));
-  if (n > static_cast<int>(size)) std::abort();
-  return n >= 0;
-}
 
 template <class T>
 void decodeOnly(const std::uint8_t* data, std::size_t size) {

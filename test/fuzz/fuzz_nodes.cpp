@@ -7,11 +7,13 @@
 #include <memory>
 
 #include "depowder/node/convert.hpp"
+#include "fuzz.hpp"
 #include "planner_node.hpp"
 #include "progress_node.hpp"
 #include "tracker_node.hpp"
 
 using namespace depowder;
+using fuzz::decoded;
 
 namespace {
 
@@ -22,11 +24,6 @@ struct Cell {
   planner::PlannerNodeOptions planner = planner::readPlannerOptions(cell);
   Cell() { tracker.threads = 1; }  // one thread: the same input runs the same way
 };
-
-template <class T>
-bool decoded(T& msg, const std::uint8_t* data, std::size_t size) {
-  return msg.decode(data, 0, static_cast<int>(size)) >= 0;
-}
 
 }  // namespace
 

@@ -10,6 +10,7 @@
 #include <cstdlib>
 
 #include "driver_config.hpp"
+#include "fuzz.hpp"
 #include "plan_msg.hpp"
 
 using namespace depowder;
@@ -68,7 +69,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     std::string why;
     if (n == 0)
       gen.stop();
-    else if (msg.decode(data + 4, 0, static_cast<int>(n)) >= 0 && fromMsg(msg, &plan, &why))
+    else if (fuzz::decoded(msg, data + 4, n) && fromMsg(msg, &plan, &why))
       if (const PreparedPlan p = preparePlan(c.arm, c.trajectory, c.safety.workspace, plan, gen.current().q);
           p.usable())
         gen.setPlan(p);
