@@ -3,8 +3,8 @@
 // progress and planner nodes of the static cube cell (config/scenarios/static.yaml), built anew
 // for each input so that a failure replays alone. Nothing may crash; what a node rejects it says.
 // Input: records of [kind byte][length, 2 bytes little-endian][the LCM message].
+#include <algorithm>
 #include <cstdlib>
-#include <memory>
 
 #include "depowder/node/convert.hpp"
 #include "fuzz.hpp"
