@@ -7,6 +7,7 @@
 #include <random>
 #include <sstream>
 
+#include "depowder/files.hpp"
 #include "depowder/ply.hpp"
 
 namespace depowder {
@@ -14,21 +15,6 @@ namespace {
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
   throw MeshError("mesh '" + path + "': " + what);
-}
-
-std::string lowerExtension(const std::string& path) {
-  const auto dot = path.find_last_of('.');
-  std::string ext = dot == std::string::npos ? "" : path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
-
-std::string readAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 // Binary STL: 80-byte header, uint32 count, then 50 bytes a triangle.
@@ -119,19 +105,21 @@ Mesh parseObj(const std::string& path, const std::string& data) {
 
 Mesh loadMesh(const std::string& path, double scale) {
   const std::string ext = lowerExtension(path);
-  const std::string data = readAll(path);
+  const std::optional<std::string> bytes = readFile(path);
+  if (!bytes) fail(path, "cannot open file");
+  const std::string& data = *bytes;
   if (data.empty()) fail(path, "file is empty");
   Mesh mesh;
-  if (ext == "stl") {
+  if (ext == ".stl") {
     if (looksLikeBinaryStl(data))
       mesh = parseBinaryStl(path, data);
     else if (data.rfind("solid", 0) == 0)
       mesh = parseAsciiStl(path, data);
     else
       fail(path, "neither a binary STL (size mismatch) nor an ascii one");
-  } else if (ext == "obj") {
+  } else if (ext == ".obj") {
     mesh = parseObj(path, data);
-  } else if (ext == "ply") {
+  } else if (ext == ".ply") {
     try {
       PlyData ply = parsePly(data, true);
       mesh.vertices = std::move(ply.vertices);
@@ -140,7 +128,7 @@ Mesh loadMesh(const std::string& path, double scale) {
       fail(path, std::string("PLY: ") + e.what());
     }
   } else {
-    fail(path, "unknown extension '." + ext + "' (expected .stl, .obj or .ply)");
+    fail(path, (ext.empty() ? "no extension" : "unknown extension '" + ext + "'") + " (expected .stl, .obj or .ply)");
   }
   if (mesh.triangles.empty()) fail(path, "no triangles");
   for (auto& v : mesh.vertices) {

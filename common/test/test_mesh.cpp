@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -119,6 +120,20 @@ TEST(MeshLoad, BrokenFilesNameTheFile) {
     } catch (const MeshError& e) {
       EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
     }
+  }
+}
+
+// The kind comes from the file name's extension, in any case; a dot in a folder name is not one.
+TEST(MeshLoad, KindFromTheFileNamesExtension) {
+  expectTetra(loadMesh(tmpFile("upper.OBJ", kObj)));
+  const std::string dir = ::testing::TempDir() + "parts.v2";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/tetra", std::ios::binary) << kObj;
+  try {
+    loadMesh(dir + "/tetra");
+    ADD_FAILURE() << "a file without an extension loaded";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("no extension (expected .stl, .obj or .ply)"), std::string::npos) << e.what();
   }
 }
 

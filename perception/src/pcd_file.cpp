@@ -39,6 +39,7 @@ double fieldValue(const std::uint8_t* p, std::uint8_t datatype) {
 // Returns "" if PCL can be trusted with the file, else what is wrong with it.
 std::string checkHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
+  if (!in) return "cannot open the file";
   in.seekg(0, std::ios::end);
   const auto file_size = static_cast<std::size_t>(std::max<std::streamoff>(0, in.tellg()));
   in.seekg(0);
@@ -126,7 +127,6 @@ PointFile readPcd(const std::string& path) {
     out.error = {FrameStatus::kUnreadable, path + ": " + why};
     return out;
   };
-  if (!std::ifstream(path, std::ios::binary)) return unreadable("cannot open the file");
   if (const std::string why = checkHeader(path); !why.empty()) return unreadable(why);
   pcl::PCLPointCloud2 blob;
   Eigen::Vector4f origin;

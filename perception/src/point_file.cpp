@@ -1,35 +1,23 @@
 #include "depowder/perception/point_file.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 
+#include "depowder/files.hpp"
 #include "depowder/ply.hpp"
 
 namespace depowder::perception {
 
-namespace {
-std::string lowerExtension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
-}  // namespace
-
 PointFile readPly(const std::string& path) {
   PointFile out;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
+  const std::optional<std::string> bytes = readFile(path);
+  if (!bytes) {
     out.error = {FrameStatus::kUnreadable, path + ": cannot open the file"};
     return out;
   }
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
   try {
-    out.points = parsePly(bytes.str(), false).vertices;
+    out.points = parsePly(*bytes, false).vertices;
   } catch (const PlyError& e) {
     out.error = {FrameStatus::kUnreadable, path + ": not a readable PLY point cloud: " + e.what()};
     return out;

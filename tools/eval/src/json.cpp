@@ -5,7 +5,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <sstream>
+
+#include "depowder/files.hpp"
 
 namespace depowder::eval {
 
@@ -334,12 +335,10 @@ class Parser {
 Json Json::parse(const std::string& text) { return Parser(text).document(); }
 
 Json readJsonFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw JsonError("cannot read " + path);
-  std::stringstream ss;
-  ss << in.rdbuf();
+  const std::optional<std::string> text = readFile(path);
+  if (!text) throw JsonError("cannot read " + path);
   try {
-    return Json::parse(ss.str());
+    return Json::parse(*text);
   } catch (const JsonError& e) {
     throw JsonError(path + ": " + e.what());
   }
