@@ -1,26 +1,84 @@
 // depowder-make-parts OUTDIR: writes OUTDIR/<name>.stl (binary, metres) for each default part
 // and prints its triangle count, bounding box, diagonal and volume.
+// depowder-make-parts --shell POINTS OUT.stl [--scale S] [--radius M] [--voxel M]: a closed
+// mesh around a CAD model given as surface points ("x y z" lines, e.g. the authors' P_cad of the
+// pipe in cm: --scale 0.01), so that the simulator can place it and the evaluation track it.
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "depowder/mesh.hpp"
 #include "depowder/parts.hpp"
 
-int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: %s OUTDIR\n  writes OUTDIR/<name>.stl for each default part\n", argv[0]);
-    return 2;
+namespace {
+
+void printRow(const std::string& name, const depowder::Mesh& mesh) {
+  const Eigen::Vector3d size = depowder::bounds(mesh).sizes() * 100.0;
+  std::printf("%-10s %9zu  %6.2f %6.2f %6.2f   %9.2f %12.2f\n", name.c_str(), mesh.triangles.size(), size.x(), size.y(),
+              size.z(), size.norm(), depowder::volume(mesh) * 1e6);
+}
+
+depowder::Cloud readPoints(const std::string& path, double scale) {
+  std::ifstream in(path);
+  if (!in) throw depowder::MeshError("points '" + path + "': cannot open file");
+  depowder::Cloud out;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line[line.find_first_not_of(" \t")] == '#') continue;
+    std::istringstream s(line);
+    depowder::Point p;
+    if (!(s >> p.x() >> p.y() >> p.z()) || !p.allFinite())
+      throw depowder::MeshError("points '" + path + "', line " + std::to_string(number) + ": not three numbers");
+    out.push_back(p * scale);
   }
-  const std::string outdir = argv[1];
+  if (out.empty()) throw depowder::MeshError("points '" + path + "': no point");
+  return out;
+}
+
+int usage(const char* argv0) {
+  std::fprintf(stderr,
+               "usage: %s OUTDIR\n  writes OUTDIR/<name>.stl for each default part\n"
+               "       %s --shell POINTS OUT.stl [--scale S] [--radius M] [--voxel M]\n"
+               "  a closed mesh around surface points (x y z lines, times S: default 1; radius default\n"
+               "  0.0015 m, voxel 0.0005 m)\n",
+               argv0, argv0);
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
   try {
     std::printf("%-10s %9s  %-22s %9s %12s\n", "part", "triangles", "bbox x y z (cm)", "diag (cm)", "volume (cm3)");
+    if (argc >= 4 && std::string(argv[1]) == "--shell") {
+      double scale = 1, radius = 0.0015, voxel = 0.0005;
+      for (int i = 4; i < argc; i += 2) {
+        const std::string flag = argv[i];
+        char* end = nullptr;
+        const double value = i + 1 < argc ? std::strtod(argv[i + 1], &end) : 0;
+        if (i + 1 >= argc || *end != '\0' || !(value > 0)) return usage(argv[0]);
+        if (flag == "--scale")
+          scale = value;
+        else if (flag == "--radius")
+          radius = value;
+        else if (flag == "--voxel")
+          voxel = value;
+        else
+          return usage(argv[0]);
+      }
+      const depowder::Mesh mesh = depowder::shellAround(readPoints(argv[2], scale), radius, voxel);
+      depowder::saveStl(mesh, argv[3]);
+      printRow(argv[3], mesh);
+      return 0;
+    }
+    if (argc != 2 || argv[1][0] == '-') return usage(argv[0]);
     for (const auto& name : depowder::parts::names()) {
       const depowder::Mesh mesh = depowder::parts::byName(name);
-      depowder::saveStl(mesh, outdir + "/" + name + ".stl");
-      const Eigen::Vector3d size = depowder::bounds(mesh).sizes() * 100.0;
-      std::printf("%-10s %9zu  %6.2f %6.2f %6.2f   %9.2f %12.2f\n", name.c_str(), mesh.triangles.size(), size.x(),
-                  size.y(), size.z(), size.norm(), depowder::volume(mesh) * 1e6);
+      depowder::saveStl(mesh, std::string(argv[1]) + "/" + name + ".stl");
+      printRow(name, mesh);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "depowder-make-parts: %s\n", e.what());

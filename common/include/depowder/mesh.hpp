@@ -59,6 +59,13 @@ SurfaceSamples sampleSurface(const Mesh& mesh, double spacing, std::uint32_t see
 /// Exactly `count` area-weighted samples, seeded.
 SurfaceSamples sampleSurfaceCount(const Mesh& mesh, std::size_t count, std::uint32_t seed = 1);
 
+/// A closed mesh around surface samples (a CAD model given as points, such as the authors' P_cad
+/// of the pipe): the boundary of the points' `radius` neighbourhood, by surface nets on their
+/// distance field sampled every `voxel` (m). A sheet of samples becomes a solid 2 x radius
+/// thick; a gap between samples wider than 2 x radius becomes a hole. Outward winding. Throws
+/// MeshError for no finite point, radius <= voxel, or a grid past 2^27 samples.
+Mesh shellAround(const Cloud& points, double radius, double voxel);
+
 /// Euclidean distance from p to the closest point of the mesh (brute force; tests and tools).
 double distanceToMesh(const Mesh& mesh, const Eigen::Vector3d& p);
 
