@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 namespace depowder {
 
@@ -20,6 +21,25 @@ std::optional<std::string> readFile(const std::string& path) {
   std::ostringstream bytes;
   bytes << in.rdbuf();
   return std::move(bytes).str();
+}
+
+Cloud readXyz(const std::string& path, double scale) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("points '" + path + "': cannot open the file");
+  Cloud out;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream s(line);
+    Point p;
+    std::string rest;
+    if (!(s >> p.x() >> p.y() >> p.z()) || !p.allFinite() || (s >> rest))
+      throw std::runtime_error("points '" + path + "', line " + std::to_string(number) + ": not three finite numbers");
+    out.push_back(scale * p);
+  }
+  if (out.empty()) throw std::runtime_error("points '" + path + "': no point");
+  return out;
 }
 
 }  // namespace depowder

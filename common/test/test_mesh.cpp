@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "depowder/files.hpp"
 #include "depowder/mesh.hpp"
 
 using namespace depowder;
@@ -233,10 +234,8 @@ TEST(MeshShell, SpherePointsBecomeAClosedShellOfTheRadius) {
 // mesh, 2 x 1.5 mm larger than the points each way.
 TEST(MeshShell, ThePapersPipeBecomesAClosedMesh) {
   const std::string path = std::string(DEPOWDER_SHARED_DATA) + "/parts/paper_pipe_cm.xyz";
-  std::ifstream in(path);
-  if (!in) GTEST_SKIP() << "the paper's pipe not found at " << path << " (not part of the project)";
-  Cloud points;
-  for (Eigen::Vector3d p; in >> p.x() >> p.y() >> p.z();) points.push_back(p * 0.01);
+  if (!std::ifstream(path)) GTEST_SKIP() << "the paper's pipe not found at " << path << " (not part of the project)";
+  const Cloud points = readXyz(path, 0.01);
   ASSERT_EQ(points.size(), 11650u);
   Eigen::AlignedBox3d box;
   for (const Eigen::Vector3d& p : points) box.extend(p);
@@ -244,4 +243,27 @@ TEST(MeshShell, ThePapersPipeBecomesAClosedMesh) {
   EXPECT_TRUE(closedAndWoundAlike(shell));
   EXPECT_GT(volume(shell), 0);
   EXPECT_LT((bounds(shell).sizes() - box.sizes() - Eigen::Vector3d::Constant(0.003)).cwiseAbs().maxCoeff(), 0.001);
+}
+
+// A points file: "x y z" lines times the scale, comments and blank lines skipped; anything else
+// is refused with the file and the line.
+TEST(Files, XyzPointsAndTheLineThatIsNot) {
+  const std::string good = tmpFile("p.xyz", "# cm\n1 2 3\n\n  -4 5.5 6e0\n");
+  const Cloud points = readXyz(good, 0.01);
+  ASSERT_EQ(points.size(), 2u);
+  EXPECT_TRUE(points[1].isApprox(Eigen::Vector3d(-0.04, 0.055, 0.06)));
+  for (const auto& [text, why] :
+       std::vector<std::pair<std::string, std::string>>{{"1 2 3\n1 2\n", "line 2: not three finite numbers"},
+                                                        {"1 2 nan\n", "line 1: not three finite numbers"},
+                                                        {"1 2 3 4\n", "line 1: not three finite numbers"},
+                                                        {"# nothing\n", "no point"}}) {
+    try {
+      readXyz(tmpFile("bad.xyz", text));
+      ADD_FAILURE() << text << " read";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.xyz"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(readXyz(::testing::TempDir() + "absent.xyz"), std::runtime_error);
 }

@@ -6,45 +6,31 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
-#include <fstream>
-#include <sstream>
 #include <string>
+#include <utility>
 
+#include "depowder/files.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/parts.hpp"
 
 namespace {
 
 void printRow(const std::string& name, const depowder::Mesh& mesh) {
+  static bool header = false;
+  if (!std::exchange(header, true))
+    std::printf("%-10s %9s  %-22s %9s %12s\n", "part", "triangles", "bbox x y z (cm)", "diag (cm)", "volume (cm3)");
   const Eigen::Vector3d size = depowder::bounds(mesh).sizes() * 100.0;
   std::printf("%-10s %9zu  %6.2f %6.2f %6.2f   %9.2f %12.2f\n", name.c_str(), mesh.triangles.size(), size.x(), size.y(),
               size.z(), size.norm(), depowder::volume(mesh) * 1e6);
 }
 
-depowder::Cloud readPoints(const std::string& path, double scale) {
-  std::ifstream in(path);
-  if (!in) throw depowder::MeshError("points '" + path + "': cannot open file");
-  depowder::Cloud out;
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line[line.find_first_not_of(" \t")] == '#') continue;
-    std::istringstream s(line);
-    depowder::Point p;
-    if (!(s >> p.x() >> p.y() >> p.z()) || !p.allFinite())
-      throw depowder::MeshError("points '" + path + "', line " + std::to_string(number) + ": not three numbers");
-    out.push_back(p * scale);
-  }
-  if (out.empty()) throw depowder::MeshError("points '" + path + "': no point");
-  return out;
-}
-
-int usage(const char* argv0) {
+int usage(const char* argv0, const std::string& why) {
   std::fprintf(stderr,
-               "usage: %s OUTDIR\n  writes OUTDIR/<name>.stl for each default part\n"
+               "%s: %s\nusage: %s OUTDIR\n  writes OUTDIR/<name>.stl for each default part\n"
                "       %s --shell POINTS OUT.stl [--scale S] [--radius M] [--voxel M]\n"
                "  a closed mesh around surface points (x y z lines, times S: default 1; radius default\n"
-               "  0.0015 m, voxel 0.0005 m)\n",
-               argv0, argv0);
+               "  0.0015 m, voxel 0.001 m)\n",
+               argv0, why.c_str(), argv0, argv0);
   return 2;
 }
 
@@ -52,29 +38,26 @@ int usage(const char* argv0) {
 
 int main(int argc, char** argv) {
   try {
-    std::printf("%-10s %9s  %-22s %9s %12s\n", "part", "triangles", "bbox x y z (cm)", "diag (cm)", "volume (cm3)");
-    if (argc >= 4 && std::string(argv[1]) == "--shell") {
-      double scale = 1, radius = 0.0015, voxel = 0.0005;
+    if (argc >= 2 && std::string(argv[1]) == "--shell") {
+      if (argc < 4) return usage(argv[0], "--shell needs POINTS and OUT.stl");
+      double scale = 1, radius = 0.0015, voxel = 0.001;
       for (int i = 4; i < argc; i += 2) {
         const std::string flag = argv[i];
+        double* value = flag == "--scale"    ? &scale
+                        : flag == "--radius" ? &radius
+                        : flag == "--voxel"  ? &voxel
+                                             : nullptr;
+        if (!value) return usage(argv[0], "unknown flag '" + flag + "'");
         char* end = nullptr;
-        const double value = i + 1 < argc ? std::strtod(argv[i + 1], &end) : 0;
-        if (i + 1 >= argc || *end != '\0' || !(value > 0)) return usage(argv[0]);
-        if (flag == "--scale")
-          scale = value;
-        else if (flag == "--radius")
-          radius = value;
-        else if (flag == "--voxel")
-          voxel = value;
-        else
-          return usage(argv[0]);
+        if (i + 1 < argc) *value = std::strtod(argv[i + 1], &end);
+        if (i + 1 >= argc || *end != '\0' || !(*value > 0)) return usage(argv[0], flag + " needs a number > 0");
       }
-      const depowder::Mesh mesh = depowder::shellAround(readPoints(argv[2], scale), radius, voxel);
+      const depowder::Mesh mesh = depowder::shellAround(depowder::readXyz(argv[2], scale), radius, voxel);
       depowder::saveStl(mesh, argv[3]);
       printRow(argv[3], mesh);
       return 0;
     }
-    if (argc != 2 || argv[1][0] == '-') return usage(argv[0]);
+    if (argc != 2 || argv[1][0] == '-') return usage(argv[0], "expected OUTDIR or --shell");
     for (const auto& name : depowder::parts::names()) {
       const depowder::Mesh mesh = depowder::parts::byName(name);
       depowder::saveStl(mesh, std::string(argv[1]) + "/" + name + ".stl");

@@ -13,8 +13,8 @@
 #include <fstream>
 #include <map>
 #include <random>
-#include <sstream>
 
+#include "depowder/files.hpp"
 #include "depowder/tracker/registration.hpp"
 #include "depowder/tracker/template.hpp"
 
@@ -25,17 +25,6 @@ using namespace depowder::tracker;
 
 // The paper's xi for the pipe (Sec. V-A) and the tracker's voxel and normal sizes.
 constexpr double kXi = 0.008, kLeaf = 0.005, kNormalRadius = 0.01;
-
-bool readXyz(const std::string& path, Cloud& out) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream s(line);
-    Point p;
-    if (s >> p.x() >> p.y() >> p.z()) out.push_back(p * 0.01);  // cm -> m
-  }
-  return !out.empty();
-}
 
 // What a camera at `eye` sees of the pipe at T_cell_part above a powder bed at height
 // `powder_z`: per 3 mrad pixel the nearest of the part's points above the powder and a 4 mm
@@ -68,7 +57,7 @@ class PaperPipe : public ::testing::Test {
   void SetUp() override {
     const std::string path = std::string(DEPOWDER_SHARED_DATA) + "/parts/paper_pipe_cm.xyz";
     if (!std::ifstream(path)) GTEST_SKIP() << "the paper's pipe not found at " << path << " (not part of the project)";
-    ASSERT_TRUE(readXyz(path, cad_)) << path;
+    cad_ = readXyz(path, 0.01);  // cm -> m
     ASSERT_EQ(cad_.size(), 11650u);
   }
 

@@ -16,6 +16,8 @@
 
 #include "depowder/eval/experiment.hpp"
 #include "depowder/eval/report.hpp"
+#include "depowder/files.hpp"
+#include "depowder/mesh.hpp"
 #include "depowder/node/yaml.hpp"
 #include "depowder/parts.hpp"
 #include "depowder/stats.hpp"
@@ -187,6 +189,25 @@ TEST(EvalStatic, ShortRunShapeBoundsAndDeterminism) {
   ASSERT_EQ(again.rows.size(), 1u);
   EXPECT_EQ(again.rows[0].rot_err_deg, r.rows[0].rot_err_deg);
   EXPECT_EQ(again.rows[0].trans_err_cm, r.rows[0].trans_err_cm);
+}
+
+// The paper's own pipe (the authors' P_cad made a closed mesh, depowder-make-parts --shell; skipped
+// without ../shared/data) at 40 and 100 % visibility, 2 seconds of frames: CU-ICP within the
+// issue's goal, 3 deg and 0.3 cm (measured: 0.26 deg / 0.051 cm at 40 %, 0.96 deg / 0.034 cm at 100 %).
+TEST(EvalStatic, ThePapersOwnPipe) {
+  const std::string path = std::string(DEPOWDER_SHARED_DATA) + "/parts/paper_pipe_cm.xyz";
+  if (!std::ifstream(path)) GTEST_SKIP() << "the paper's pipe not found at " << path << " (not part of the project)";
+  const EvalPart pipe{"paper_pipe", shellAround(readXyz(path, 0.01), 0.0015, 0.001), 0.008};
+  StaticOptions o = shortStatic();
+  o.visibilities = {0.4, 1.0};
+  o.duration = 2.0;
+  const StaticResult r = runStatic(testCell(), {pipe}, {tracker::Method::kCu}, o);
+  ASSERT_EQ(r.rows.size(), 2u);
+  for (const auto& row : r.rows) {
+    std::printf("paper_pipe at %.0f %%: %.2f deg, %.3f cm\n", row.visibility * 100, row.rot_err_deg, row.trans_err_cm);
+    EXPECT_LT(row.rot_err_deg, 3.0) << row.visibility;
+    EXPECT_LT(row.trans_err_cm, 0.3) << row.visibility;
+  }
 }
 
 // --trace: one row per tracked frame and method, its error the same as the tables' (the last
