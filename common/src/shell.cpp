@@ -25,7 +25,7 @@ Mesh shellAround(const Cloud& points, double radius, double voxel) {
   if (n.cast<double>().prod() > static_cast<double>(1u << 27))
     throw MeshError("shell: " + std::to_string(n.x()) + " x " + std::to_string(n.y()) + " x " + std::to_string(n.z()) +
                     " samples: use a larger voxel");
-  auto at = [&](int x, int y, int z) { return (static_cast<std::size_t>(z) * n.y() + y) * n.x() + x; };
+  auto at = [&](const Eigen::Array3i& s) { return (static_cast<std::size_t>(s.z()) * n.y() + s.y()) * n.x() + s.x(); };
   auto position = [&](const Eigen::Array3i& s) -> Point { return origin + voxel * s.cast<double>().matrix(); };
 
   // The distance field less the radius: < 0 inside the shell. Beyond radius + 2 voxels it is
@@ -37,21 +37,21 @@ Mesh shellAround(const Cloud& points, double radius, double voxel) {
     for (int y = 0; y < n.y(); ++y)
       for (int x = 0; x < n.x(); ++x) {
         const PointGrid::Hit hit = grid.nearest(position({x, y, z}), reach);
-        f[at(x, y, z)] = static_cast<float>((hit.found() ? std::sqrt(hit.distance2) : reach) - radius);
+        f[at({x, y, z})] = static_cast<float>((hit.found() ? std::sqrt(hit.distance2) : reach) - radius);
       }
 
   // A vertex in each cell whose corners differ in sign.
   Mesh mesh;
   std::vector<int> vertex_of(f.size(), -1);  // by the cell's lowest corner
+  // The cell's 12 edges, between its corners k = x + 2y + 4z.
   static constexpr std::array<std::array<int, 2>, 12> kEdges{
-      {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}}};  // corner k =
-                                                                                                          // x + 2y + 4z
+      {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}}};
   for (int z = 0; z + 1 < n.z(); ++z)
     for (int y = 0; y + 1 < n.y(); ++y)
       for (int x = 0; x + 1 < n.x(); ++x) {
         std::array<float, 8> c;
         int inside = 0;
-        for (int k = 0; k < 8; ++k) inside += (c[k] = f[at(x + (k & 1), y + (k >> 1 & 1), z + (k >> 2))]) < 0;
+        for (int k = 0; k < 8; ++k) inside += (c[k] = f[at({x + (k & 1), y + (k >> 1 & 1), z + (k >> 2)})]) < 0;
         if (inside == 0 || inside == 8) continue;
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
         int crossings = 0;
@@ -62,7 +62,7 @@ Mesh shellAround(const Cloud& points, double radius, double voxel) {
           sum += pa + t * (pb - pa);
           ++crossings;
         }
-        vertex_of[at(x, y, z)] = static_cast<int>(mesh.vertices.size());
+        vertex_of[at({x, y, z})] = static_cast<int>(mesh.vertices.size());
         mesh.vertices.push_back(position({x, y, z}) + voxel * sum / crossings);
       }
 
@@ -76,11 +76,11 @@ Mesh shellAround(const Cloud& points, double radius, double voxel) {
         for (int a = 0; a < 3; ++a) {
           auto unit = [](int k) { return Eigen::Vector3i::Unit(k).array().eval(); };
           const Eigen::Array3i s(x, y, z), t = s + unit(a), db = unit((a + 1) % 3), dc = unit((a + 2) % 3);
-          const bool in0 = f[at(s.x(), s.y(), s.z())] < 0, in1 = f[at(t.x(), t.y(), t.z())] < 0;
+          const bool in0 = f[at(s)] < 0, in1 = f[at(t)] < 0;
           if (in0 == in1) continue;
           std::array<int, 4> q;
           const std::array<Eigen::Array3i, 4> cells{s, s - db, s - db - dc, s - dc};
-          for (int k = 0; k < 4; ++k) q[k] = vertex_of[at(cells[k].x(), cells[k].y(), cells[k].z())];
+          for (int k = 0; k < 4; ++k) q[k] = vertex_of[at(cells[k])];
           if (!in0) std::swap(q[1], q[3]);  // outside at the lower end: the shell is towards -a
           mesh.triangles.emplace_back(q[0], q[1], q[2]);
           mesh.triangles.emplace_back(q[0], q[2], q[3]);
