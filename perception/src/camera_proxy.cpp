@@ -94,8 +94,12 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   const Pose* nozzle = sf.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
   // The nozzle frame: tip at the origin, body along -z (the spray direction is +z).
   const Pose T_nozzle_cell = nozzle ? nozzle->inverse(Eigen::Isometry) : Pose::Identity();
+  // The end effector's body sits at the top of the tube: the same test from its lower end.
+  const Eigen::Vector3d effector_end(0, 0, sf.length - std::min(sf.effector_length, sf.length));
   const auto on_nozzle = [&](const Point& p) {
-    return onNozzleBody(T_nozzle_cell * p, sf.length, sf.radius, sf.margin, sf.margin);
+    const Point q = T_nozzle_cell * p;
+    return onNozzleBody(q, sf.length, sf.radius, sf.margin, sf.margin) ||
+           onNozzleBody(q + effector_end, sf.effector_length, sf.effector_radius, sf.margin, sf.margin);
   };
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
   for (CameraFrame& f : merged.sources) {

@@ -158,6 +158,7 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   PerceptionConfig cfg;
   cfg.self_filter.radius = 0.03;
   cfg.self_filter.length = 0.2;
+  cfg.self_filter.effector_radius = 0;  // the tube alone (the next test: the end effector)
   cfg.self_filter.margin = 0.005;
   Pose T_cell_nozzle = Pose::Identity();  // tip 1 cm into the sphere's top, spraying down (+z of the nozzle = -z)
   T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
@@ -198,6 +199,38 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   }
   EXPECT_EQ(stale.on_nozzle, 0u);
   EXPECT_EQ(stale.points.size(), all.points.size());
+}
+
+// The end effector's body at the top of the tube (robot.tool_radius, robot.effector_length) is
+// filtered too: with a hair-thin tube, the sphere's cap inside the effector's cylinder goes and
+// the rest stays.
+TEST(CameraProxy, SelfFilterRemovesTheEndEffectorsBody) {
+  const auto rig = defaultRig(320, 240);
+  const Scene s = scene();
+  PerceptionConfig cfg;
+  cfg.self_filter.radius = 0.001;
+  cfg.self_filter.length = 0.2;
+  cfg.self_filter.effector_radius = 0.03;
+  cfg.self_filter.effector_length = 0.06;
+  cfg.self_filter.margin = 0.005;
+  // Spraying down with the tip 20 cm under the sphere's top: the effector spans 8 to 14 cm up.
+  Pose T_cell_nozzle = Pose::Identity();
+  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T_cell_nozzle.translation() = Point(0.02, 0.01, -0.06);
+  CameraProxy proxy(cfg, kBox, {"LEFT", "RIGHT"});
+  proxy.addNozzlePose(kT0, T_cell_nozzle);
+  proxy.addDepth(render(s, rig[0], kT0), rig[0], kT0);
+  proxy.addDepth(render(s, rig[1], kT0), rig[1], kT0);
+  const auto out = proxy.poll(kT0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_GT(out[0].on_nozzle, 100u);
+  const Pose T_nozzle_cell = T_cell_nozzle.inverse(Eigen::Isometry);
+  for (const Point& p : out[0].points) {
+    const Point q = T_nozzle_cell * p;  // the effector: z from -0.2 to -0.14, within 3.5 cm of the axis
+    const bool inside =
+        q.z() > -0.2 + cfg.voxel_leaf && q.z() < -0.14 - cfg.voxel_leaf && q.head<2>().norm() < 0.035 - cfg.voxel_leaf;
+    ASSERT_FALSE(inside) << p.transpose();
+  }
 }
 
 // config.agreement: a camera whose frames claim a pose 1 deg off its true one is flagged after

@@ -57,16 +57,17 @@ CheckReport checkWaypoints(const std::vector<Waypoint>& waypoints, const std::ve
   slab("wall", s.x() + 2 * t, t, s.z() + t, {0, -0.5 * (s.y() + t), 0.5 * (s.z() - t)});
   slab("floor", s.x() + 2 * t, s.y() + 2 * t, t, {0, 0, -0.5 * t});
 
-  // The arm as capsules (the tool capsule replaced by the nozzle cylinder).
+  // The arm as capsules, the end effector's cylinder on the flange, and the nozzle cylinder.
   struct Link {
     std::string name;
     int link;
     Pose T_link_capsule;
-    std::shared_ptr<fcl::Capsuled> shape;
+    std::shared_ptr<fcl::CollisionGeometryd> shape;
   };
   std::vector<Link> links;
-  for (const robot::LinkCapsule& c : robot::linkCapsules(arm)) {
-    if (c.name == "tool") continue;
+  if (const robot::EffectorBody e = robot::effectorBody(arm); !e.empty())
+    links.push_back({"effector", 6, e.T_flange_body, std::make_shared<fcl::Cylinderd>(e.radius, e.length)});
+  for (const robot::LinkCapsule& c : robot::linkCapsules()) {
     Pose T = Pose::Identity();
     T.translation() = 0.5 * (c.p0 + c.p1);
     const Eigen::Vector3d d = c.p1 - c.p0;

@@ -50,7 +50,8 @@ Pose nozzleShapePose(const Pose& T_cell_nozzle, const NozzleConfig& nozzle) {
   return T_cell_nozzle * T_nozzle_shape;
 }
 
-/// A link capsule of the arm: its pose in the link frame and three grown copies.
+/// A link capsule of the arm, or the end effector's cylinder: its pose in the link frame and
+/// three grown copies.
 struct ArmCapsule {
   int link = 0;
   std::string name;
@@ -147,13 +148,19 @@ CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> par
   if (w.arm) {
     // The nozzle body reaches at least up to the flange.
     body.length = std::max(nozzle.length, w.arm->T_flange_nozzle.translation().norm());
-    for (const robot::LinkCapsule& c : robot::linkCapsules(*w.arm)) {
-      if (c.name == "tool") continue;  // modelled by the nozzle cylinder
+    for (const robot::LinkCapsule& c : robot::linkCapsules()) {
       const double len = (c.p1 - c.p0).norm();
       auto capsule = [&](double m) { return std::make_shared<fcl::Capsuled>(c.radius + m, len); };
       w.capsules.push_back({c.link, c.name, segmentPose(c.p0, c.p1), capsule(config.arm_margin),
                             capsule(config.arm_margin + config.tracking_margin),
                             capsule(config.arm_margin + config.lost_margin)});
+    }
+    // The end effector's body on the flange; the nozzle cylinder below covers the tube to the tip.
+    if (const robot::EffectorBody e = robot::effectorBody(*w.arm); !e.empty()) {
+      auto cylinder = [&](double m) { return std::make_shared<fcl::Cylinderd>(e.radius + m, e.length + 2 * m); };
+      w.capsules.push_back({6, "effector", e.T_flange_body, cylinder(config.arm_margin),
+                            cylinder(config.arm_margin + config.tracking_margin),
+                            cylinder(config.arm_margin + config.lost_margin)});
     }
   }
   w.parts = std::move(parts);

@@ -1,5 +1,6 @@
 #include "depowder/robot/kinematics.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -187,10 +188,10 @@ Eigen::Matrix<double, 6, 6> jacobianFlange(const Joints& q) {
   return J;
 }
 
-std::vector<LinkCapsule> linkCapsules(const ArmConfig& arm) {
+std::vector<LinkCapsule> linkCapsules() {
   // Fitted to enclose every vertex of the public URDF meshes (test_kinematics checks this when
   // the meshes are available), radii rounded up by about 2 mm.
-  std::vector<LinkCapsule> caps = {
+  return {
       {0, "base", {-0.019, 0, 0.060}, {-0.019, 0, 0.123}, 0.160},
       {1, "J1.turret", {0.036, 0, 0.285}, {0.036, 0, 0.340}, 0.167},
       {2, "J2.upper_arm", {0.002, 0.111, -0.006}, {0.002, 0.111, 0.357}, 0.096},
@@ -199,16 +200,17 @@ std::vector<LinkCapsule> linkCapsules(const ArmConfig& arm) {
       {5, "J5.wrist", {0, 0, -0.021}, {0, 0, 0.054}, 0.050},
       {6, "J6.flange", {0, 0, -0.008}, {0, 0, 0}, 0.022},
   };
-  // The tool: from the flange towards the nozzle tip, ending one radius short of the tip so the
-  // capsule does not reach past it.
+}
+
+EffectorBody effectorBody(const ArmConfig& arm) {
   const Eigen::Vector3d tip = arm.T_flange_nozzle.translation();
-  const double r = arm.tool_radius;
-  const double len = tip.norm();
-  if (len > 1e-6 && r > 0) {
-    const Eigen::Vector3d p1 = len > r ? Eigen::Vector3d(tip * (len - r) / len) : Eigen::Vector3d::Zero();
-    caps.push_back({6, "tool", Eigen::Vector3d::Zero(), p1, r});
-  }
-  return caps;
+  const Eigen::Vector3d axis = tip.norm() > 1e-9 ? Eigen::Vector3d(tip.normalized()) : Eigen::Vector3d::UnitZ();
+  EffectorBody body;
+  body.radius = arm.tool_radius;
+  body.length = std::min(arm.effector_length, tip.norm());
+  body.T_flange_body.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis).toRotationMatrix();
+  body.T_flange_body.translation() = 0.5 * body.length * axis;
+  return body;
 }
 
 }  // namespace depowder::robot

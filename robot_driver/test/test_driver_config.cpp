@@ -38,6 +38,8 @@ TEST(DriverConfig, DefaultCellRobotSection) {
   EXPECT_EQ(s.driver.session.client.port, 5007);
   EXPECT_EQ(s.driver.session.slave_mode, 0x202);
   EXPECT_NEAR(s.driver.arm.T_flange_nozzle.translation().z(), 0.25, 1e-12);  // end effector + tube
+  EXPECT_DOUBLE_EQ(s.driver.arm.tool_radius, 0.045);                         // the end effector's body
+  EXPECT_DOUBLE_EQ(s.driver.arm.effector_length, 0.129);
   EXPECT_GE(s.node.state_rate_hz, 125.0);
   EXPECT_EQ(s.driver.session.vacuum_variable, "IO24");
   EXPECT_DOUBLE_EQ(s.driver.safety.plan_max_age_s, 1.5);
@@ -101,6 +103,7 @@ TEST(DriverConfig, ArmModelIdFollowsTheArmOnly) {
                        "rpy_deg: [0, 0, 0]}\n"));
   EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  workspace: {min: [-0.2, -0.15, "
                        "0.0], max: [0.2, 0.15, 0.5]}\n"));
+  EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  effector_length: 0.1\n"));
 }
 
 TEST(DriverConfig, RefusesBadValues) {

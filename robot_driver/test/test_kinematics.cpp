@@ -185,8 +185,7 @@ TEST(Jacobian, MatchesFiniteDifferences) {
 TEST(Capsules, EncloseUrdfMeshes) {
   const std::filesystem::path dir = std::filesystem::path(DEPOWDER_SHARED_DATA) / "robot" / "vs6577_meshes";
   if (!std::filesystem::exists(dir)) GTEST_SKIP() << "no reference meshes at " << dir;
-  const ArmConfig arm = cellArm();
-  const auto caps = linkCapsules(arm);
+  const auto caps = linkCapsules();
   const char* names[7] = {"base_link", "J1", "J2", "J3", "J4", "J5", "J6"};
   for (int link = 0; link < 7; ++link) {
     const Mesh mesh = loadMesh((dir / (std::string(names[link]) + ".stl")).string());
@@ -203,8 +202,30 @@ TEST(Capsules, EncloseUrdfMeshes) {
     }
     EXPECT_LT(worst, 1e-3) << names[link] << " sticks out of its capsules by " << worst << " m";
   }
-  // The tool capsule ends at the nozzle tip.
-  const auto& tool = caps.back();
-  EXPECT_EQ(tool.name, "tool");
-  EXPECT_NEAR((tool.p1 + tool.radius * Eigen::Vector3d::UnitZ() - arm.T_flange_nozzle.translation()).norm(), 0, 1e-12);
+}
+
+// The end effector's cylinder (the cell's tool_radius and effector_length) holds the authors'
+// vacuum end effector, mm, its axis along z from the flange face (measured: 44.48 mm from the
+// axis at most, 0.4 to 128.9 mm along it).
+TEST(Capsules, EffectorCylinderHoldsTheAuthorsEndEffector) {
+  const std::filesystem::path path = std::filesystem::path(DEPOWDER_SHARED_DATA) / "robot" / "vacuum_end_effector.stl";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no reference mesh at " << path;
+  ArmConfig arm = cellArm();
+  arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.25);  // config/cell.yaml: the end effector and a tube
+  const EffectorBody body = effectorBody(arm);
+  const Pose T_effector_flange = body.T_flange_body.inverse();
+  double radial = 0, axial = 0;
+  for (const Eigen::Vector3d& v : loadMesh(path.string(), 0.001).vertices) {
+    const Eigen::Vector3d local = T_effector_flange * v;
+    radial = std::max(radial, local.head<2>().norm());
+    axial = std::max(axial, std::abs(local.z()));
+  }
+  EXPECT_LE(radial, body.radius);
+  EXPECT_LE(axial, 0.5 * body.length);
+  // The cylinder starts at the flange and points at the tip; it never reaches past the tip.
+  EXPECT_DOUBLE_EQ(body.length, 0.129);
+  EXPECT_TRUE((body.T_flange_body * Eigen::Vector3d(0, 0, -0.5 * body.length)).isZero(1e-12));
+  EXPECT_TRUE((body.T_flange_body.linear() * Eigen::Vector3d::UnitZ()).isApprox(Eigen::Vector3d::UnitZ()));
+  arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.1);
+  EXPECT_DOUBLE_EQ(effectorBody(arm).length, 0.1);
 }

@@ -16,20 +16,23 @@ namespace depowder::sim {
 class EmulatedArm : public ArmSource {
  public:
   EmulatedArm(const BcapEmulator& emulator, robot::ArmConfig arm);
-  /// One closed mesh per link capsule (link frame), for World::setArmLinks. The tool's own
-  /// capsule is left out: the world draws and tests the nozzle itself.
+  /// One closed mesh per link capsule and one for the end effector's body (link frame), for
+  /// World::setArmLinks. The world draws and tests the nozzle tube itself.
   const std::vector<Mesh>& linkMeshes() const { return meshes_; }
   ArmState update(double t) override;
 
  private:
   const BcapEmulator& emulator_;
   robot::ArmConfig arm_;
-  std::vector<robot::LinkCapsule> capsules_;
+  std::vector<int> links_;  ///< the link each mesh rides on (robot::linkPoses)
   std::vector<Mesh> meshes_;
 };
 
 /// A closed capsule mesh around the segment p0-p1 (m), `segments` around its axis.
 Mesh capsuleMesh(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double radius, int segments = 12);
+
+/// A closed cylinder mesh of `radius` and `length` (m) on the z axis of T, centred on T's origin.
+Mesh cylinderMesh(double radius, double length, const Pose& T, int segments = 16);
 
 /// The emulator's configuration from the arm and the controller's I/O names.
 BcapEmulatorConfig emulatorConfig(const robot::ArmConfig& arm, int port, const std::string& bind_address,
