@@ -1,0 +1,35 @@
+// The simulated arm's meshes: the end effector's cylinder is closed, wound outward and where
+// the tool says (on the tool axis from the flange).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <utility>
+
+#include "../app/emulated_arm.hpp"
+
+using namespace depowder;
+
+TEST(EmulatedArm, EffectorCylinderIsClosedOutwardAndOnTheToolAxis) {
+  robot::ArmConfig arm;
+  arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.25);
+  const robot::EffectorBody body = robot::effectorBody(arm);
+  const int segments = 16;
+  const Mesh m = sim::cylinderMesh(body.radius, body.length, body.T_flange_body, segments);
+  // Each edge once each way: closed and consistently wound.
+  std::map<std::pair<int, int>, int> directed;
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
+  for (const auto& [edge, count] : directed) {
+    EXPECT_EQ(count, 1);
+    EXPECT_EQ(directed.count({edge.second, edge.first}), 1u);
+  }
+  // Outward: the volume of the inscribed prism, positive.
+  const double prism = 0.5 * segments * body.radius * body.radius * std::sin(2 * M_PI / segments) * body.length;
+  EXPECT_NEAR(volume(m), prism, 1e-9);
+  // From the flange (z = 0) to 12.9 cm along the tool, within the radius of the axis.
+  const Eigen::AlignedBox3d box = bounds(m);
+  EXPECT_NEAR(box.min().z(), 0.0, 1e-12);
+  EXPECT_NEAR(box.max().z(), 0.129, 1e-12);
+  EXPECT_NEAR(box.max().x(), 0.045, 1e-12);
+}
