@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "depowder/sim/nozzle.hpp"
+
 namespace depowder::sim {
 
 Mesh capsuleMesh(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double radius, int segments) {
@@ -33,27 +35,6 @@ Mesh capsuleMesh(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double ra
   return m;  // the pole rings are degenerate (zero-area triangles), which is harmless
 }
 
-Mesh cylinderMesh(double radius, double length, const Pose& T, int segments) {
-  // Two rings and their centres: vertex 2 * segments is the bottom's centre, the next the top's.
-  Mesh m;
-  for (const double z : {-0.5 * length, 0.5 * length})
-    for (int s = 0; s < segments; ++s) {
-      const double theta = 2 * M_PI * s / segments;
-      m.vertices.push_back(T * Eigen::Vector3d(radius * std::cos(theta), radius * std::sin(theta), z));
-    }
-  const int bottom = 2 * segments, top = bottom + 1;
-  m.vertices.push_back(T * Eigen::Vector3d(0, 0, -0.5 * length));
-  m.vertices.push_back(T * Eigen::Vector3d(0, 0, 0.5 * length));
-  for (int s = 0; s < segments; ++s) {
-    const int a = s, b = (s + 1) % segments, c = a + segments, d = b + segments;
-    m.triangles.emplace_back(a, b, d);
-    m.triangles.emplace_back(a, d, c);
-    m.triangles.emplace_back(bottom, b, a);
-    m.triangles.emplace_back(top, c, d);
-  }
-  return m;
-}
-
 EmulatedArm::EmulatedArm(const BcapEmulator& emulator, robot::ArmConfig arm)
     : emulator_(emulator), arm_(std::move(arm)) {
   for (const robot::LinkCapsule& c : robot::linkCapsules()) {
@@ -61,8 +42,11 @@ EmulatedArm::EmulatedArm(const BcapEmulator& emulator, robot::ArmConfig arm)
     meshes_.push_back(capsuleMesh(c.p0, c.p1, c.radius));
   }
   if (const robot::EffectorBody e = robot::effectorBody(arm_); !e.empty()) {
+    // The nozzle's cylinder (z from -length to 0), centred on the body's pose.
+    Pose T_body_cylinder = Pose::Identity();
+    T_body_cylinder.translation().z() = 0.5 * e.length;
     links_.push_back(6);
-    meshes_.push_back(cylinderMesh(e.radius, e.length, e.T_flange_body));
+    meshes_.push_back(transformed(makeNozzleMesh({e.radius, e.length, 16}), e.T_flange_body * T_body_cylinder));
   }
 }
 

@@ -31,9 +31,6 @@ class EmulatedArm : public ArmSource {
 /// A closed capsule mesh around the segment p0-p1 (m), `segments` around its axis.
 Mesh capsuleMesh(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double radius, int segments = 12);
 
-/// A closed cylinder mesh of `radius` and `length` (m) on the z axis of T, centred on T's origin.
-Mesh cylinderMesh(double radius, double length, const Pose& T, int segments = 16);
-
 /// The emulator's configuration from the arm and the controller's I/O names.
 BcapEmulatorConfig emulatorConfig(const robot::ArmConfig& arm, int port, const std::string& bind_address,
                                   const std::string& vacuum_variable, const std::string& air_variable);

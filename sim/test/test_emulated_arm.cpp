@@ -14,8 +14,11 @@ TEST(EmulatedArm, EffectorCylinderIsClosedOutwardAndOnTheToolAxis) {
   robot::ArmConfig arm;
   arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.25);
   const robot::EffectorBody body = robot::effectorBody(arm);
+  const sim::BcapEmulator emulator;  // not started: only the arm's meshes are wanted
+  const sim::EmulatedArm emulated(emulator, arm);
+  ASSERT_EQ(emulated.linkMeshes().size(), robot::linkCapsules().size() + 1);  // the links, then the effector
   const int segments = 16;
-  const Mesh m = sim::cylinderMesh(body.radius, body.length, body.T_flange_body, segments);
+  const Mesh& m = emulated.linkMeshes().back();
   // Each edge once each way: closed and consistently wound.
   std::map<std::pair<int, int>, int> directed;
   for (const auto& t : m.triangles)
