@@ -39,6 +39,15 @@ Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
   return T;
 }
 
+Pose segmentFrame(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1) {
+  Pose T = Pose::Identity();
+  T.translation() = 0.5 * (p0 + p1);
+  const Eigen::Vector3d d = p1 - p0;
+  if (d.norm() > 1e-12)
+    T.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), d.normalized()).toRotationMatrix();
+  return T;
+}
+
 Pose makePose(const Eigen::Vector3d& t, const Eigen::Quaterniond& q) {
   Pose pose = Pose::Identity();
   pose.linear() = q.normalized().toRotationMatrix();

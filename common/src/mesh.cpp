@@ -1,11 +1,13 @@
 #include "depowder/mesh.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <unordered_map>
 
 #include "depowder/files.hpp"
 #include "depowder/ply.hpp"
@@ -169,6 +171,76 @@ Mesh transformed(const Mesh& mesh, const Pose& T) {
   Mesh out = mesh;
   for (auto& v : out.vertices) v = T * v;
   return out;
+}
+
+Mesh cylinderMesh(double radius, double length, int segments) {
+  Mesh m;
+  const int n = std::max(3, segments);
+  for (int k = 0; k < n; ++k) {
+    const double a = 2 * M_PI * k / n;
+    m.vertices.emplace_back(radius * std::cos(a), radius * std::sin(a), 0.0);      // 2k: at the origin
+    m.vertices.emplace_back(radius * std::cos(a), radius * std::sin(a), -length);  // 2k+1: at -length
+  }
+  const int near = static_cast<int>(m.vertices.size()), far = near + 1;
+  m.vertices.emplace_back(0, 0, 0);
+  m.vertices.emplace_back(0, 0, -length);
+  for (int k = 0; k < n; ++k) {
+    const int a0 = 2 * k, a1 = 2 * k + 1, b0 = 2 * ((k + 1) % n), b1 = b0 + 1;
+    m.triangles.emplace_back(a0, a1, b1);  // side, facing out
+    m.triangles.emplace_back(a0, b1, b0);
+    m.triangles.emplace_back(near, a0, b0);  // disc at the origin, facing +z
+    m.triangles.emplace_back(far, b1, a1);   // disc at -length, facing -z
+  }
+  return m;
+}
+
+Mesh welded(const Mesh& mesh, double tolerance) {
+  // Sorted by position on a grid of `tolerance`, equal neighbours are the same vertex.
+  using Key = std::array<double, 3>;
+  std::vector<std::pair<Key, int>> keys(mesh.vertices.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const Eigen::Vector3d g = (mesh.vertices[i] / tolerance).array().round();
+    keys[i] = {{g.x(), g.y(), g.z()}, static_cast<int>(i)};
+  }
+  std::sort(keys.begin(), keys.end());
+  Mesh out;
+  std::vector<int> index(keys.size());
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    if (k == 0 || keys[k].first != keys[k - 1].first) out.vertices.push_back(mesh.vertices[keys[k].second]);
+    index[keys[k].second] = static_cast<int>(out.vertices.size()) - 1;
+  }
+  out.triangles.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) out.triangles.emplace_back(index[t[0]], index[t[1]], index[t[2]]);
+  return out;
+}
+
+std::string closednessProblem(const Mesh& mesh, bool manifold) {
+  const auto n = static_cast<std::uint64_t>(mesh.vertices.size());
+  std::unordered_map<std::uint64_t, int> uses;  // directed edge a -> b as a * n + b
+  uses.reserve(3 * mesh.triangles.size());
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) ++uses[t[k] * n + t[(k + 1) % 3]];
+  auto mm = [&](int v) {
+    const Eigen::Vector3d p = 1e3 * mesh.vertices[v];
+    std::ostringstream s;
+    s.precision(1);
+    s << std::fixed << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
+    return s.str();
+  };
+  for (const auto& t : mesh.triangles)  // in the triangles' order, so the same edge is named each time
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      if (a == b) return "a triangle uses the vertex at " + mm(a) + " mm twice";
+      const int forth = uses[a * n + b];
+      const auto back = uses.find(b * n + a);
+      const int against = back == uses.end() ? 0 : back->second;
+      if (forth != against || (manifold && forth != 1))
+        return "the edge from " + mm(a) + " to " + mm(b) + " mm is in " + std::to_string(forth) +
+               " triangle(s) one way round and " + std::to_string(against) + " the other" +
+               (forth == against ? " (more than two faces meet there)"
+                                 : " (a hole, or triangles wound against their neighbours)");
+    }
+  return mesh.triangles.empty() ? "no triangles" : "";
 }
 
 namespace {

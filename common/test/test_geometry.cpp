@@ -49,6 +49,17 @@ TEST(Geometry, OnNozzleBodyGrowsTheBodyByEachMargin) {
   EXPECT_FALSE(onNozzleBody({0, 0, -0.1}, 0.25, 0.0125, 0.02, -0.0125));  // no radius left: nothing
 }
 
+// A segment's frame: at its middle, z along it, a proper rotation; a point segment keeps no turn.
+TEST(Geometry, SegmentFrameIsCentredWithZAlongTheSegment) {
+  const Eigen::Vector3d p0(0.1, -0.2, 0.3), p1(0.4, 0.2, 0.3);
+  const Pose T = segmentFrame(p0, p1);
+  EXPECT_TRUE(isValidPose(T));
+  EXPECT_LT((T.translation() - Eigen::Vector3d(0.25, 0.0, 0.3)).norm(), 1e-12);
+  EXPECT_LT((T.linear().col(2) - Eigen::Vector3d(0.6, 0.8, 0.0)).norm(), 1e-12);
+  EXPECT_LT((T * Eigen::Vector3d(0, 0, 0.25) - p1).norm(), 1e-12);  // half its length of 0.5 m up z
+  EXPECT_TRUE(segmentFrame(p0, p0).linear().isIdentity());
+}
+
 TEST(PointGrid, NearestMatchesBruteForce) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-0.2, 0.2);

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <random>
 #include <string>
 
@@ -166,6 +165,45 @@ TEST(MeshLoad, PlyListLengthsAndIndicesAreChecked) {
   EXPECT_EQ(loadMesh(tmpFile("list.ply", head + "3 0 1 2\n")).triangles.size(), 1u);
 }
 
+// A closed surface passes; a hole, a flipped triangle, a third face on an edge and a repeated
+// vertex are each named, with the edge's end points in mm.
+TEST(MeshClosedness, HolesFlipsAndExtraFacesAreNamed) {
+  EXPECT_EQ(closednessProblem(tetra(), true), "");
+  // An STL repeats each vertex per triangle: closed only once they are welded (4 of 12 left).
+  const Mesh stl = loadMesh(tmpFile("tw.stl", kAsciiStl));
+  EXPECT_NE(closednessProblem(stl), "");
+  EXPECT_EQ(welded(stl).vertices.size(), 4u);
+  EXPECT_EQ(closednessProblem(welded(stl), true), "");
+
+  Mesh hole = tetra();
+  hole.triangles.pop_back();  // (1 2 3)
+  EXPECT_EQ(closednessProblem(hole),
+            "the edge from (0.0, 1000.0, 0.0) to (1000.0, 0.0, 0.0) mm is in 1 triangle(s) one way round and 0 the "
+            "other (a hole, or triangles wound against their neighbours)");
+  Mesh flipped = tetra();
+  flipped.triangles[3] = {1, 3, 2};
+  EXPECT_NE(closednessProblem(flipped).find("wound against"), std::string::npos);
+  Mesh doubled = tetra();  // two tetrahedra sharing the edge 0-1: closed, not manifold
+  append(doubled, transformed(tetra(), makePoseRpy({0, 0, 0}, M_PI, 0, 0)));
+  doubled = welded(doubled);
+  EXPECT_EQ(closednessProblem(doubled), "");
+  EXPECT_NE(closednessProblem(doubled, true).find("more than two faces"), std::string::npos);
+  Mesh degenerate = tetra();
+  degenerate.triangles[0] = {0, 0, 1};
+  EXPECT_EQ(closednessProblem(degenerate), "a triangle uses the vertex at (0.0, 0.0, 0.0) mm twice");
+  EXPECT_EQ(closednessProblem(Mesh{}), "no triangles");
+}
+
+// A cylinder of 16 facets: closed, wound outward (the inscribed prism's volume), from the origin
+// down to -length.
+TEST(MeshClosedness, CylinderIsClosedAndOutward) {
+  const Mesh m = cylinderMesh(0.02, 0.1, 16);
+  EXPECT_EQ(closednessProblem(m, true), "");
+  EXPECT_NEAR(volume(m), 0.5 * 16 * 0.02 * 0.02 * std::sin(2 * M_PI / 16) * 0.1, 1e-12);
+  EXPECT_NEAR(bounds(m).min().z(), -0.1, 1e-12);
+  EXPECT_NEAR(bounds(m).max().z(), 0.0, 1e-12);
+}
+
 TEST(MeshSample, PointsLieOnTheSurfaceWithUnitNormals) {
   const Mesh m = tetra();
   const SurfaceSamples s = sampleSurface(m, 0.02, 3);
@@ -183,22 +221,6 @@ TEST(MeshSample, PointsLieOnTheSurfaceWithUnitNormals) {
   EXPECT_NEAR(static_cast<double>(slanted) / s.points.size(), expected, 0.03);
 }
 
-namespace {
-
-// Each edge as often one way as the other: a closed surface, consistently wound (surface nets may
-// join two sheets at one vertex, so an edge can be in four triangles).
-bool closedAndWoundAlike(const Mesh& m) {
-  std::map<std::pair<int, int>, int> directed;
-  for (const auto& t : m.triangles)
-    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
-  for (const auto& [edge, count] : directed)
-    if (const auto back = directed.find({edge.second, edge.first}); back == directed.end() || back->second != count)
-      return false;
-  return !directed.empty();
-}
-
-}  // namespace
-
 // Points sampled on a sphere of 3 cm (about 0.8 mm apart) become a closed shell from 3 - 0.2 to
 // 3 + 0.2 cm, wound outward (measured: 0.970 of the volume between the two spheres; vertices
 // 0.060 mm off them on average, 0.72 mm at most, where random samples leave a gap).
@@ -210,7 +232,7 @@ TEST(MeshShell, SpherePointsBecomeAClosedShellOfTheRadius) {
   for (int i = 0; i < 16000; ++i)
     points.push_back(kR * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized());
   const Mesh shell = shellAround(points, kShell, kVoxel);
-  EXPECT_TRUE(closedAndWoundAlike(shell));
+  EXPECT_EQ(closednessProblem(shell), "");
   const double expected = 4.0 / 3.0 * M_PI * (std::pow(kR + kShell, 3) - std::pow(kR - kShell, 3));
   EXPECT_NEAR(volume(shell) / expected, 1.0, 0.05) << volume(shell) * 1e6 << " cm3";
   // How far each vertex lies from the nearer of the two spheres: less where samples are far apart
@@ -240,7 +262,7 @@ TEST(MeshShell, ThePapersPipeBecomesAClosedMesh) {
   Eigen::AlignedBox3d box;
   for (const Eigen::Vector3d& p : points) box.extend(p);
   const Mesh shell = shellAround(points, 0.0015, 0.001);
-  EXPECT_TRUE(closedAndWoundAlike(shell));
+  EXPECT_EQ(closednessProblem(shell), "");
   EXPECT_GT(volume(shell), 0);
   EXPECT_LT((bounds(shell).sizes() - box.sizes() - Eigen::Vector3d::Constant(0.003)).cwiseAbs().maxCoeff(), 0.001);
 }

@@ -6,7 +6,6 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
-#include <tuple>
 #include <vector>
 
 #include "depowder/mesh.hpp"
@@ -15,42 +14,7 @@
 namespace {
 
 using depowder::Mesh;
-
-// Merges vertices at the same position (to 1 nm), so the closedness check is about geometry,
-// not about how the generator or the STL loader happened to index vertices.
-Mesh welded(const Mesh& mesh) {
-  std::map<std::tuple<long long, long long, long long>, int> index;
-  std::vector<int> remap(mesh.vertices.size());
-  Mesh out;
-  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const auto& v = mesh.vertices[i];
-    const auto key = std::make_tuple(std::llround(v.x() * 1e9), std::llround(v.y() * 1e9), std::llround(v.z() * 1e9));
-    const auto [it, inserted] = index.emplace(key, static_cast<int>(out.vertices.size()));
-    if (inserted) out.vertices.push_back(v);
-    remap[i] = it->second;
-  }
-  for (const auto& t : mesh.triangles) out.triangles.emplace_back(remap[t[0]], remap[t[1]], remap[t[2]]);
-  return out;
-}
-
-// Empty if every edge of the welded mesh is used exactly once in each direction (closed,
-// manifold along edges, consistently wound); otherwise describes the first problem found.
-std::string closednessProblem(const Mesh& raw) {
-  const Mesh mesh = welded(raw);
-  std::map<std::pair<int, int>, int> directed;
-  for (const auto& t : mesh.triangles) {
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return "degenerate triangle (repeated vertex)";
-    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
-  }
-  for (const auto& [edge, count] : directed) {
-    const auto back = directed.find({edge.second, edge.first});
-    const int reverse = back == directed.end() ? 0 : back->second;
-    if (count != 1 || reverse != 1)
-      return "edge " + std::to_string(edge.first) + "->" + std::to_string(edge.second) + " used " +
-             std::to_string(count) + " times, reverse " + std::to_string(reverse) + " times";
-  }
-  return "";
-}
+using depowder::welded;
 
 // Connected components of the welded mesh (shells), as lists of triangle indices.
 std::vector<std::vector<std::size_t>> shells(const Mesh& mesh) {
@@ -94,7 +58,10 @@ TEST_P(PartTest, VolumeIsPositiveAndSmallerThanBoundingBox) {
   EXPECT_LE(volume, depowder::bounds(mesh).volume() * (1 + 1e-9));  // equal for the cube
 }
 
-TEST_P(PartTest, EveryEdgeIsSharedByTwoOppositelyWoundTriangles) { EXPECT_EQ(closednessProblem(part()), ""); }
+// Closed, manifold along its edges and wound alike: each edge in one triangle each way round.
+TEST_P(PartTest, EveryEdgeIsSharedByTwoOppositelyWoundTriangles) {
+  EXPECT_EQ(depowder::closednessProblem(welded(part()), true), "");
+}
 
 TEST_P(PartTest, EveryShellIsWoundOutward) {
   const Mesh mesh = welded(part());
@@ -123,7 +90,7 @@ TEST_P(PartTest, CommittedStlMatchesGenerator) {
   const auto a = depowder::bounds(loaded), b = depowder::bounds(generated);
   EXPECT_LT((a.min() - b.min()).cwiseAbs().maxCoeff(), 1e-6) << path;
   EXPECT_LT((a.max() - b.max()).cwiseAbs().maxCoeff(), 1e-6) << path;
-  EXPECT_EQ(closednessProblem(loaded), "") << path;
+  EXPECT_EQ(depowder::closednessProblem(welded(loaded), true), "") << path;
 }
 
 INSTANTIATE_TEST_SUITE_P(DefaultParts, PartTest, ::testing::ValuesIn(depowder::parts::names()),

@@ -67,14 +67,9 @@ CheckReport checkWaypoints(const std::vector<Waypoint>& waypoints, const std::ve
   std::vector<Link> links;
   if (const robot::EffectorBody e = robot::effectorBody(arm); !e.empty())
     links.push_back({"effector", 6, e.T_flange_body, std::make_shared<fcl::Cylinderd>(e.radius, e.length)});
-  for (const robot::LinkCapsule& c : robot::linkCapsules()) {
-    Pose T = Pose::Identity();
-    T.translation() = 0.5 * (c.p0 + c.p1);
-    const Eigen::Vector3d d = c.p1 - c.p0;
-    if (d.norm() > 1e-12)
-      T.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), d.normalized()).toRotationMatrix();
-    links.push_back({c.name, c.link, T, std::make_shared<fcl::Capsuled>(c.radius, d.norm())});
-  }
+  for (const robot::LinkCapsule& c : robot::linkCapsules())
+    links.push_back(
+        {c.name, c.link, segmentFrame(c.p0, c.p1), std::make_shared<fcl::Capsuled>(c.radius, (c.p1 - c.p0).norm())});
   const double body = std::max(nozzle.length, arm.T_flange_nozzle.translation().norm());
   auto cylinder = std::make_shared<fcl::Cylinderd>(nozzle.radius, body);
   Pose T_nozzle_cylinder = Pose::Identity();

@@ -59,15 +59,6 @@ struct ArmCapsule {
   std::shared_ptr<FclGeometry> fixed, tracked, lost;
 };
 
-Pose segmentPose(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1) {
-  Pose T = Pose::Identity();
-  T.translation() = 0.5 * (p0 + p1);
-  const Eigen::Vector3d d = p1 - p0;
-  if (d.norm() > 1e-12)
-    T.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), d.normalized()).toRotationMatrix();
-  return T;
-}
-
 struct Static {
   std::string name;
   FclObject object;
@@ -151,7 +142,7 @@ CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> par
     for (const robot::LinkCapsule& c : robot::linkCapsules()) {
       const double len = (c.p1 - c.p0).norm();
       auto capsule = [&](double m) { return std::make_shared<fcl::Capsuled>(c.radius + m, len); };
-      w.capsules.push_back({c.link, c.name, segmentPose(c.p0, c.p1), capsule(config.arm_margin),
+      w.capsules.push_back({c.link, c.name, segmentFrame(c.p0, c.p1), capsule(config.arm_margin),
                             capsule(config.arm_margin + config.tracking_margin),
                             capsule(config.arm_margin + config.lost_margin)});
     }

@@ -208,8 +208,7 @@ EffectorBody effectorBody(const ArmConfig& arm) {
   EffectorBody body;
   body.radius = arm.tool_radius;
   body.length = std::min(arm.effector_length, tip.norm());
-  body.T_flange_body.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis).toRotationMatrix();
-  body.T_flange_body.translation() = 0.5 * body.length * axis;
+  body.T_flange_body = segmentFrame(Eigen::Vector3d::Zero(), body.length * axis);
   return body;
 }
 

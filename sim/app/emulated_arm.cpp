@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include "depowder/sim/nozzle.hpp"
-
 namespace depowder::sim {
 
 Mesh capsuleMesh(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double radius, int segments) {
@@ -42,11 +40,11 @@ EmulatedArm::EmulatedArm(const BcapEmulator& emulator, robot::ArmConfig arm)
     meshes_.push_back(capsuleMesh(c.p0, c.p1, c.radius));
   }
   if (const robot::EffectorBody e = robot::effectorBody(arm_); !e.empty()) {
-    // The nozzle's cylinder (z from -length to 0), centred on the body's pose.
+    // A cylinder from z = -length to 0, centred on the body's pose.
     Pose T_body_cylinder = Pose::Identity();
     T_body_cylinder.translation().z() = 0.5 * e.length;
     links_.push_back(6);
-    meshes_.push_back(transformed(makeNozzleMesh({e.radius, e.length, 16}), e.T_flange_body * T_body_cylinder));
+    meshes_.push_back(transformed(cylinderMesh(e.radius, e.length, 16), e.T_flange_body * T_body_cylinder));
   }
 }
 

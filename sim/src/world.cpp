@@ -121,6 +121,13 @@ World::World(const SimConfig& config, const BoxGeometry& box, std::vector<PartSp
   if (!(box.size.minCoeff() > 0)) throw std::invalid_argument("World: the box size must be positive");
   for (auto& spec : parts) {
     if (spec.mesh.triangles.empty()) throw std::invalid_argument("World: part '" + spec.name + "' has no triangles");
+    // The powder and the physics need the part's inside: a closed surface, wound outward.
+    if (const std::string problem = closednessProblem(welded(spec.mesh)); !problem.empty())
+      throw std::invalid_argument("World: part '" + spec.name + "' is not a closed surface: " + problem);
+    if (!(volume(spec.mesh) > 0))
+      throw std::invalid_argument("World: part '" + spec.name +
+                                  "' is wound inward (its volume is not positive): its triangles must turn "
+                                  "counter-clockwise seen from outside");
     for (const auto& p : parts_)
       if (p.spec.name == spec.name) throw std::invalid_argument("World: part name '" + spec.name + "' is used twice");
     PartState s;
@@ -149,7 +156,7 @@ World::World(const SimConfig& config, const BoxGeometry& box, std::vector<PartSp
   box_mesh_ = boxMesh(box_);
   if (config_.scene.table_size > 0)
     addRect(table_mesh_, {0, 0, -box_.wall}, 2, +1, Eigen::Vector3d::Constant(0.5 * config_.scene.table_size));
-  nozzle_mesh_ = makeNozzleMesh(config_.nozzle);
+  nozzle_mesh_ = cylinderMesh(config_.nozzle.radius, config_.nozzle.length, config_.nozzle.segments);
   nozzle_samples_ = contactSamples(nozzle_mesh_, config_.scene.contact_spacing);
 
   if (config_.physics.enabled) {

@@ -3,8 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <map>
-#include <utility>
 
 #include "../app/emulated_arm.hpp"
 
@@ -19,14 +17,7 @@ TEST(EmulatedArm, EffectorCylinderIsClosedOutwardAndOnTheToolAxis) {
   ASSERT_EQ(emulated.linkMeshes().size(), robot::linkCapsules().size() + 1);  // the links, then the effector
   const int segments = 16;
   const Mesh& m = emulated.linkMeshes().back();
-  // Each edge once each way: closed and consistently wound.
-  std::map<std::pair<int, int>, int> directed;
-  for (const auto& t : m.triangles)
-    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
-  for (const auto& [edge, count] : directed) {
-    EXPECT_EQ(count, 1);
-    EXPECT_EQ(directed.count({edge.second, edge.first}), 1u);
-  }
+  EXPECT_EQ(closednessProblem(m, true), "");
   // Outward: the volume of the inscribed prism, positive.
   const double prism = 0.5 * segments * body.radius * body.radius * std::sin(2 * M_PI / segments) * body.length;
   EXPECT_NEAR(volume(m), prism, 1e-9);

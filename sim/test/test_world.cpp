@@ -277,3 +277,23 @@ TEST(World, SeededRunsAreBitIdentical) {
   EXPECT_EQ(a.second, c.second);  // the same world
   EXPECT_GT(a.second.back(), 0);  // the vacuum did dig
 }
+
+// A part mesh with a hole or wound inward has no inside to push or weigh: refused, naming the part.
+TEST(World, PartsWithoutAnInsideAreRefusedByName) {
+  auto refusal = [](Mesh mesh) {
+    try {
+      World(quietConfig(), BoxGeometry{}, {{"open_cup", std::move(mesh), at(0, 0, 0.05), 1000}}, {});
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  Mesh open = parts::byName("cube");
+  open.triangles.pop_back();
+  EXPECT_NE(refusal(open).find("World: part 'open_cup' is not a closed surface: the edge from ("), std::string::npos)
+      << refusal(open);
+  Mesh inward = parts::byName("cube");
+  for (auto& t : inward.triangles) std::swap(t[1], t[2]);
+  EXPECT_NE(refusal(inward).find("World: part 'open_cup' is wound inward"), std::string::npos) << refusal(inward);
+  EXPECT_EQ(refusal(parts::byName("cube")), "accepted");
+}

@@ -139,27 +139,6 @@ void setInput(vtkActor* actor, vtkPolyData* pd) {
   vtkPolyDataMapper::SafeDownCast(actor->GetMapper())->SetInputData(pd);
 }
 
-/// A nozzle: closed cylinder whose tip is at the origin, body along -z (z = spray direction).
-Mesh nozzleMesh(int segments = 16) {
-  Mesh m;
-  for (int i = 0; i < segments; ++i) {
-    const double a = 2 * M_PI * i / segments;
-    m.vertices.emplace_back(kNozzleRadius * std::cos(a), kNozzleRadius * std::sin(a), 0.0);
-    m.vertices.emplace_back(kNozzleRadius * std::cos(a), kNozzleRadius * std::sin(a), -kNozzleLength);
-  }
-  const int tip = static_cast<int>(m.vertices.size()), back = tip + 1;
-  m.vertices.emplace_back(0, 0, 0);
-  m.vertices.emplace_back(0, 0, -kNozzleLength);
-  for (int i = 0; i < segments; ++i) {
-    const int a0 = 2 * i, a1 = 2 * i + 1, b0 = 2 * ((i + 1) % segments), b1 = b0 + 1;
-    m.triangles.emplace_back(a0, a1, b1);
-    m.triangles.emplace_back(a0, b1, b0);
-    m.triangles.emplace_back(tip, a0, b0);
-    m.triangles.emplace_back(back, b1, a1);
-  }
-  return m;
-}
-
 /// The 12 interior edges of the build box (origin at the floor centre).
 vtkSmartPointer<vtkPolyData> boxPolyData(const Eigen::Vector3d& size) {
   vtkNew<vtkPoints> points;
@@ -407,7 +386,7 @@ Renderer::Renderer(const RenderOptions& options) : impl_(std::make_unique<Impl>(
   d.plan->GetProperty()->SetPointSize(5);
   d.plan->GetProperty()->LightingOff();
   d.renderer->AddActor(d.plan);
-  const Mesh nozzle = nozzleMesh();
+  const Mesh nozzle = cylinderMesh(kNozzleRadius, kNozzleLength, 16);
   d.nozzle = makeActor(meshPolyData(nozzle));
   d.nozzle->GetProperty()->SetAmbient(0.3);
   d.nozzle->SetVisibility(false);

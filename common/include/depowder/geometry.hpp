@@ -31,6 +31,10 @@ bool isValidPose(const Pose& pose, double tolerance = 1e-6);
 /// Camera pose at `position` looking at `target` (z forward, image x horizontal, y down).
 Pose lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target);
 
+/// The frame of the segment p0 -> p1: origin at its middle, z along it (no turn for a segment of
+/// no length). FCL's capsules and cylinders are centred on their z axis, so this places one.
+Pose segmentFrame(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1);
+
 /// Pose from translation (m) and quaternion (w, x, y, z); the quaternion is normalised.
 Pose makePose(const Eigen::Vector3d& t, const Eigen::Quaterniond& q);
 

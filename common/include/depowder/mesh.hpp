@@ -36,6 +36,21 @@ void append(Mesh& a, const Mesh& b);
 
 Mesh transformed(const Mesh& mesh, const Pose& T);
 
+/// A closed cylinder about the z axis from z = -length to 0, `segments` facets round, outward
+/// wound: a nozzle, its tip disc at the origin and its body along -z.
+Mesh cylinderMesh(double radius, double length, int segments);
+
+/// The mesh with the vertices at the same place (to `tolerance` m) merged into one, so that a
+/// test of its edges is about its surface, not about how a file or generator indexed it.
+Mesh welded(const Mesh& mesh, double tolerance = 1e-9);
+
+/// Why the mesh bounds no solid, or empty if it bounds one: each edge must be in as many
+/// triangles one way round as the other (a surface without holes, its triangles wound alike) and,
+/// with `manifold`, in exactly one each way (no more than two faces meet at an edge). Compares
+/// vertex indices, so weld a mesh whose triangles do not share them. Names the first edge found
+/// wrong by its end points.
+std::string closednessProblem(const Mesh& mesh, bool manifold = false);
+
 /// Total surface area, m^2.
 double surfaceArea(const Mesh& mesh);
 

@@ -15,9 +15,6 @@ struct NozzleGeometry {
   int segments = 24;       ///< facets around
 };
 
-/// The cylinder in the nozzle frame (tip disc at z = 0, top disc at z = -length), outward wound.
-Mesh makeNozzleMesh(const NozzleGeometry& geometry);
-
 /// Points on a mesh's surface (about one per `spacing` m) for contact tests, mesh frame.
 Cloud contactSamples(const Mesh& mesh, double spacing);
 
