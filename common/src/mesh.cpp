@@ -227,10 +227,15 @@ std::string closednessProblem(const Mesh& mesh, bool manifold) {
     s << std::fixed << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
     return s.str();
   };
+  // A triangle with a repeated vertex adds an edge each way round and bounds nothing: harmless to
+  // a solid (CAD exports often have them), not to a manifold.
+  if (manifold)
+    for (const auto& t : mesh.triangles)
+      for (int k = 0; k < 3; ++k)
+        if (t[k] == t[(k + 1) % 3]) return "a triangle uses the vertex at " + mm(t[k]) + " mm twice";
   for (const auto& t : mesh.triangles)  // in the triangles' order, so the same edge is named each time
     for (int k = 0; k < 3; ++k) {
       const int a = t[k], b = t[(k + 1) % 3];
-      if (a == b) return "a triangle uses the vertex at " + mm(a) + " mm twice";
       const int forth = uses[a * n + b];
       const auto back = uses.find(b * n + a);
       const int against = back == uses.end() ? 0 : back->second;

@@ -46,7 +46,8 @@ Mesh welded(const Mesh& mesh, double tolerance = 1e-9);
 
 /// Why the mesh bounds no solid, or empty if it bounds one: each edge must be in as many
 /// triangles one way round as the other (a surface without holes, its triangles wound alike) and,
-/// with `manifold`, in exactly one each way (no more than two faces meet at an edge). Compares
+/// with `manifold`, in exactly one each way (no more than two faces meet at an edge, and no
+/// triangle repeats a vertex). Compares
 /// vertex indices, so weld a mesh whose triangles do not share them. Names the first edge found
 /// wrong by its end points.
 std::string closednessProblem(const Mesh& mesh, bool manifold = false);
