@@ -1,7 +1,12 @@
-// The default cell's parts: size, frame, closed outward-wound shells, and the committed STLs.
+// The default cell's parts: size, frame, closed outward-wound shells, the committed STLs, and
+// depowder-make-parts --check on a part and on a broken one.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <numeric>
 #include <stdexcept>
@@ -112,3 +117,28 @@ TEST(Parts, UnknownNameThrowsNamingTheKnownParts) {
 }
 
 }  // namespace
+
+// depowder-make-parts --check: a committed part bounds a solid (exit 0); the same part less one
+// triangle is refused with the edge that lost its neighbour (exit 1), and a missing file by name.
+TEST(MakeParts, CheckSaysWhetherTheSimulatorTakesAMesh) {
+  const std::string tool = std::string(DEPOWDER_BIN_DIR) + "/depowder-make-parts --check ";
+  const std::string out = ::testing::TempDir() + "make_parts_check.txt";
+  auto run = [&](const std::string& args) {
+    const int status = std::system((tool + args + " > " + out + " 2>&1").c_str());
+    std::ifstream in(out);
+    return std::pair{WIFEXITED(status) ? WEXITSTATUS(status) : -1, std::string(std::istreambuf_iterator<char>(in), {})};
+  };
+  const std::string cube = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/cube.stl";
+  const auto [ok, said] = run(cube);
+  EXPECT_EQ(ok, 0) << said;
+  EXPECT_NE(said.find("bounds a solid"), std::string::npos) << said;
+
+  Mesh open = depowder::loadMesh(cube);
+  open.triangles.pop_back();
+  const std::string open_path = ::testing::TempDir() + "open_cube.stl";
+  depowder::saveStl(open, open_path);
+  const auto [refused, why] = run(cube + " " + open_path + " " + ::testing::TempDir() + "missing.stl");
+  EXPECT_EQ(refused, 1) << why;
+  EXPECT_NE(why.find("is in 1 triangle(s) one way round and 0 the other"), std::string::npos) << why;
+  EXPECT_NE(why.find("missing.stl': cannot open file"), std::string::npos) << why;
+}

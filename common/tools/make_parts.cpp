@@ -3,11 +3,14 @@
 // depowder-make-parts --shell POINTS OUT.stl [--scale S] [--radius M] [--voxel M]: a closed
 // mesh around a CAD model given as surface points ("x y z" lines, e.g. the authors' P_cad of the
 // pipe in cm: --scale 0.01), so that the simulator can place it and the evaluation track it.
+// depowder-make-parts --check MESH... [--scale S]: whether each mesh bounds a solid, as the
+// simulator needs (the tracker takes any surface); exits 1 if one does not.
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "depowder/files.hpp"
 #include "depowder/mesh.hpp"
@@ -29,8 +32,11 @@ int usage(const char* argv0, const std::string& why) {
                "%s: %s\nusage: %s OUTDIR\n  writes OUTDIR/<name>.stl for each default part\n"
                "       %s --shell POINTS OUT.stl [--scale S] [--radius M] [--voxel M]\n"
                "  a closed mesh around surface points (x y z lines, times S: default 1; radius default\n"
-               "  0.0015 m, voxel 0.001 m)\n",
-               argv0, why.c_str(), argv0, argv0);
+               "  0.0015 m, voxel 0.001 m)\n"
+               "       %s --check MESH... [--scale S]\n"
+               "  whether each mesh (.stl, .obj, .ply, times S: default 1) bounds a solid, as the simulator\n"
+               "  needs: closed, wound outward; exit 1 if one does not\n",
+               argv0, why.c_str(), argv0, argv0, argv0);
   return 2;
 }
 
@@ -57,7 +63,36 @@ int main(int argc, char** argv) {
       printRow(argv[3], mesh);
       return 0;
     }
-    if (argc != 2 || argv[1][0] == '-') return usage(argv[0], "expected OUTDIR or --shell");
+    if (argc >= 2 && std::string(argv[1]) == "--check") {
+      double scale = 1;
+      std::vector<std::string> paths;
+      for (int i = 2; i < argc; ++i) {
+        if (std::string(argv[i]) != "--scale") {
+          paths.emplace_back(argv[i]);
+          continue;
+        }
+        char* end = nullptr;
+        if (++i < argc) scale = std::strtod(argv[i], &end);
+        if (i >= argc || *end != '\0' || !(scale > 0)) return usage(argv[0], "--scale needs a number > 0");
+      }
+      if (paths.empty()) return usage(argv[0], "--check needs a mesh file");
+      int refused = 0;
+      for (const std::string& path : paths) {
+        std::string problem;
+        try {
+          const depowder::Mesh mesh = depowder::loadMesh(path, scale);
+          printRow(path, mesh);
+          problem = depowder::closednessProblem(depowder::welded(mesh));
+          if (problem.empty() && !(depowder::volume(mesh) > 0)) problem = "wound inward (its volume is not positive)";
+        } catch (const depowder::MeshError& e) {
+          problem = e.what();
+        }
+        std::printf("  %s\n", problem.empty() ? "bounds a solid: the simulator takes it" : problem.c_str());
+        refused += !problem.empty();
+      }
+      return refused ? 1 : 0;
+    }
+    if (argc != 2 || argv[1][0] == '-') return usage(argv[0], "expected OUTDIR, --shell or --check");
     for (const auto& name : depowder::parts::names()) {
       const depowder::Mesh mesh = depowder::parts::byName(name);
       depowder::saveStl(mesh, std::string(argv[1]) + "/" + name + ".stl");
