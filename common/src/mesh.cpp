@@ -248,6 +248,14 @@ std::string closednessProblem(const Mesh& mesh, bool manifold) {
   return mesh.triangles.empty() ? "no triangles" : "";
 }
 
+std::string solidProblem(const Mesh& mesh) {
+  if (const std::string problem = closednessProblem(welded(mesh)); !problem.empty())
+    return "not a closed surface: " + problem;
+  if (!(volume(mesh) > 0))
+    return "wound inward (its volume is not positive): its triangles must turn counter-clockwise seen from outside";
+  return "";
+}
+
 namespace {
 double triangleArea(const Mesh& m, const Eigen::Vector3i& t) {
   return 0.5 * (m.vertices[t[1]] - m.vertices[t[0]]).cross(m.vertices[t[2]] - m.vertices[t[0]]).norm();

@@ -27,6 +27,13 @@ void printRow(const std::string& name, const depowder::Mesh& mesh) {
               size.z(), size.norm(), depowder::volume(mesh) * 1e6);
 }
 
+/// A number > 0 from a whole argument, else false.
+bool readPositive(const char* text, double& value) {
+  char* end = nullptr;
+  value = std::strtod(text, &end);
+  return *end == '\0' && value > 0;
+}
+
 int usage(const char* argv0, const std::string& why) {
   std::fprintf(stderr,
                "%s: %s\nusage: %s OUTDIR\n  writes OUTDIR/<name>.stl for each default part\n"
@@ -54,9 +61,7 @@ int main(int argc, char** argv) {
                         : flag == "--voxel"  ? &voxel
                                              : nullptr;
         if (!value) return usage(argv[0], "unknown flag '" + flag + "'");
-        char* end = nullptr;
-        if (i + 1 < argc) *value = std::strtod(argv[i + 1], &end);
-        if (i + 1 >= argc || *end != '\0' || !(*value > 0)) return usage(argv[0], flag + " needs a number > 0");
+        if (i + 1 >= argc || !readPositive(argv[i + 1], *value)) return usage(argv[0], flag + " needs a number > 0");
       }
       const depowder::Mesh mesh = depowder::shellAround(depowder::readXyz(argv[2], scale), radius, voxel);
       depowder::saveStl(mesh, argv[3]);
@@ -71,9 +76,7 @@ int main(int argc, char** argv) {
           paths.emplace_back(argv[i]);
           continue;
         }
-        char* end = nullptr;
-        if (++i < argc) scale = std::strtod(argv[i], &end);
-        if (i >= argc || *end != '\0' || !(scale > 0)) return usage(argv[0], "--scale needs a number > 0");
+        if (++i >= argc || !readPositive(argv[i], scale)) return usage(argv[0], "--scale needs a number > 0");
       }
       if (paths.empty()) return usage(argv[0], "--check needs a mesh file");
       int refused = 0;
@@ -82,8 +85,7 @@ int main(int argc, char** argv) {
         try {
           const depowder::Mesh mesh = depowder::loadMesh(path, scale);
           printRow(path, mesh);
-          problem = depowder::closednessProblem(depowder::welded(mesh));
-          if (problem.empty() && !(depowder::volume(mesh) > 0)) problem = "wound inward (its volume is not positive)";
+          problem = depowder::solidProblem(mesh);
         } catch (const depowder::MeshError& e) {
           problem = e.what();
         }

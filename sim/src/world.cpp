@@ -121,13 +121,9 @@ World::World(const SimConfig& config, const BoxGeometry& box, std::vector<PartSp
   if (!(box.size.minCoeff() > 0)) throw std::invalid_argument("World: the box size must be positive");
   for (auto& spec : parts) {
     if (spec.mesh.triangles.empty()) throw std::invalid_argument("World: part '" + spec.name + "' has no triangles");
-    // The powder and the physics need the part's inside: a closed surface, wound outward.
-    if (const std::string problem = closednessProblem(welded(spec.mesh)); !problem.empty())
-      throw std::invalid_argument("World: part '" + spec.name + "' is not a closed surface: " + problem);
-    if (!(volume(spec.mesh) > 0))
-      throw std::invalid_argument("World: part '" + spec.name +
-                                  "' is wound inward (its volume is not positive): its triangles must turn "
-                                  "counter-clockwise seen from outside");
+    // The powder's support, the contacts and the mass need the part's inside.
+    if (const std::string problem = solidProblem(spec.mesh); !problem.empty())
+      throw std::invalid_argument("World: part '" + spec.name + "' is " + problem);
     for (const auto& p : parts_)
       if (p.spec.name == spec.name) throw std::invalid_argument("World: part name '" + spec.name + "' is used twice");
     PartState s;

@@ -52,6 +52,11 @@ Mesh welded(const Mesh& mesh, double tolerance = 1e-9);
 /// wrong by its end points.
 std::string closednessProblem(const Mesh& mesh, bool manifold = false);
 
+/// Why the mesh bounds no solid as the simulator needs one, or empty if it does: "not a closed
+/// surface: " and closednessProblem's answer once welded, or "wound inward ..." for a closed
+/// mesh whose volume is not positive.
+std::string solidProblem(const Mesh& mesh);
+
 /// Total surface area, m^2.
 double surfaceArea(const Mesh& mesh);
 

@@ -24,13 +24,17 @@ struct MergerConfig {
 /// planner placing the nozzle relative to the tracked pose, an estimate pulled towards it can
 /// run away with it. Its pose comes from ROBOT_STATE (the state nearest each time step).
 struct SelfFilterConfig {
-  double radius = 0.0125;          ///< m, the nozzle body's radius (as planner.nozzle.radius)
-  double length = 0.25;            ///< m of body above the tip (as planner.nozzle.length)
-  double effector_radius = 0.045;  ///< m: the end effector's body at the top of it, this radius (as
-  double effector_length = 0.129;  ///< robot.tool_radius) and this long down from the top (robot.effector_length)
-  double margin = 0.006;           ///< m around the body: range noise, the robot state up to 4 ms from the frame
-                                   ///< (ROBOT_STATE at 125 Hz). Not more: where the part touches or falls against
-                          ///< the nozzle its own points go too (1 cm cost the toppling pipe its track); < 0: off
+  double radius = 0.0125;  ///< m, the nozzle body's radius (as planner.nozzle.radius)
+  double length = 0.25;    ///< m of body above the tip (as planner.nozzle.length)
+  /// The end effector's body at the top of the nozzle body: its radius (as robot.tool_radius)
+  /// and how far down from the top it reaches (as robot.effector_length; a longer one is taken
+  /// from the tip up), m.
+  double effector_radius = 0.045;
+  double effector_length = 0.129;
+  /// m around the body: range noise, the robot state up to 4 ms from the frame (ROBOT_STATE at
+  /// 125 Hz). Not more: where the part touches or falls against the nozzle its own points go too
+  /// (1 cm cost the toppling pipe its track); < 0: off.
+  double margin = 0.006;
   double max_age = 0.1;  ///< s: no robot state within this of a time step's utime: not filtered
 };
 
