@@ -92,4 +92,17 @@ bool onNozzleBody(const Point& p, double length, double radius, double along, do
   return p.z() < along && p.z() > -(length + along) && p.head<2>().squaredNorm() < r * r;
 }
 
+std::vector<EffectorSection> vacuumEffector() { return {{0.0445, 0.008}, {0.0286, 0.121}}; }
+
+std::vector<EffectorSpan> effectorSpans(const std::vector<EffectorSection>& sections, double reach) {
+  std::vector<EffectorSpan> spans;
+  double from = 0;
+  for (const EffectorSection& s : sections) {
+    const double to = std::min(from + s.length, reach);
+    if (s.radius > 0 && to > from) spans.push_back({from, to, s.radius});
+    from += s.length;
+  }
+  return spans;
+}
+
 }  // namespace depowder

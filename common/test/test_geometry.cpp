@@ -49,6 +49,22 @@ TEST(Geometry, OnNozzleBodyGrowsTheBodyByEachMargin) {
   EXPECT_FALSE(onNozzleBody({0, 0, -0.1}, 0.25, 0.0125, 0.02, -0.0125));  // no radius left: nothing
 }
 
+// The end effector's sections one after another from the flange, cut at the tip; a section of no
+// radius leaves a gap, one beyond the tip is left out.
+TEST(Geometry, EffectorSpansFollowEachOtherAndStopAtTheTip) {
+  const std::vector<EffectorSpan> spans = effectorSpans({{0.04, 0.01}, {0, 0.02}, {0.03, 0.1}, {0.05, 0.1}}, 0.08);
+  ASSERT_EQ(spans.size(), 2u);
+  EXPECT_DOUBLE_EQ(spans[0].from, 0.0);
+  EXPECT_DOUBLE_EQ(spans[0].to, 0.01);
+  EXPECT_DOUBLE_EQ(spans[0].radius, 0.04);
+  EXPECT_DOUBLE_EQ(spans[1].from, 0.03);
+  EXPECT_DOUBLE_EQ(spans[1].to, 0.08);  // cut at the tip
+  EXPECT_DOUBLE_EQ(spans[1].radius, 0.03);
+  double length = 0;
+  for (const EffectorSection& s : vacuumEffector()) length += s.length;
+  EXPECT_NEAR(length, 0.129, 1e-12);  // the authors' end effector
+}
+
 // A segment's frame: at its middle, z along it, a proper rotation; a point segment keeps no turn.
 TEST(Geometry, SegmentFrameIsCentredWithZAlongTheSegment) {
   const Eigen::Vector3d p0(0.1, -0.2, 0.3), p1(0.4, 0.2, 0.3);

@@ -27,8 +27,7 @@ void readSection(const node::YamlReader& r, CameraNodeOptions& o) {
   const node::YamlReader sf = r.child("self_filter");
   sf.read("radius", p.self_filter.radius, 0.0, 0.5);
   sf.read("length", p.self_filter.length, 0.0, 2.0);
-  sf.read("effector_radius", p.self_filter.effector_radius, 0.0, 0.5);
-  sf.read("effector_length", p.self_filter.effector_length, 0.0, 2.0);
+  node::readEffector(sf, "effector", p.self_filter.effector);
   sf.read("margin", p.self_filter.margin, -1.0, 0.2);
   sf.read("max_age", p.self_filter.max_age, 0.0, 1.0);
   sf.finish();

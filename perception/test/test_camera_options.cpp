@@ -60,6 +60,19 @@ TEST(CameraOptions, DefaultCellStatesTheLibraryDefaults) {
   EXPECT_EQ(o->recv_buf_size, 4194304);
   EXPECT_TRUE(o->files.dir.empty());  // live by default
   EXPECT_EQ(o->cell.cameras.size(), 2u);
+  // The self-filter's end effector: the library's default, and the one the planner and the
+  // simulated arm use (robot.effector).
+  std::vector<EffectorSection> robot;
+  node::readEffector(o->cell.root.child("robot"), "effector", robot);
+  const std::vector<EffectorSection>& filter = o->perception.self_filter.effector;
+  ASSERT_EQ(filter.size(), robot.size());
+  ASSERT_EQ(filter.size(), d.self_filter.effector.size());
+  for (std::size_t k = 0; k < filter.size(); ++k) {
+    EXPECT_EQ(filter[k].radius, robot[k].radius);
+    EXPECT_EQ(filter[k].length, robot[k].length);
+    EXPECT_EQ(filter[k].radius, d.self_filter.effector[k].radius);
+    EXPECT_EQ(filter[k].length, d.self_filter.effector[k].length);
+  }
 }
 
 TEST(CameraOptions, FilesSectionAndCommandLine) {
@@ -97,6 +110,9 @@ TEST(CameraOptions, ErrorsNameTheKeyOrFlag) {
   EXPECT_NE(leaf.find("[0.001, 0.05]"), std::string::npos) << leaf;
   EXPECT_NE(errorOf({"--cell", cellWith("perception: {files: {rate: 3}}\n")}).find("unknown key 'rate'"),
             std::string::npos);
+  const std::string effector =
+      errorOf({"--cell", cellWith("perception: {self_filter: {effector: [{radius: 0.03, length: 0}]}}\n")});
+  EXPECT_NE(effector.find("perception.self_filter.effector[0].length"), std::string::npos) << effector;
   const std::string cell = cellWith("perception: {}\n");
   EXPECT_NE(errorOf({"--cell", cell, "--rate", "fast"}).find("--rate wants a number"), std::string::npos);
   EXPECT_NE(errorOf({"--cell", cell, "--camera-pose", "1,2,3"}).find("--camera-pose wants x,y,z,roll,pitch,yaw"),

@@ -158,7 +158,7 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   PerceptionConfig cfg;
   cfg.self_filter.radius = 0.03;
   cfg.self_filter.length = 0.2;
-  cfg.self_filter.effector_radius = 0;  // the tube alone (the next test: the end effector)
+  cfg.self_filter.effector.clear();  // the tube alone (the next test: the end effector)
   cfg.self_filter.margin = 0.005;
   Pose T_cell_nozzle = Pose::Identity();  // tip 1 cm into the sphere's top, spraying down (+z of the nozzle = -z)
   T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
@@ -201,19 +201,19 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   EXPECT_EQ(stale.points.size(), all.points.size());
 }
 
-// The end effector's body at the top of the tube (robot.tool_radius, robot.effector_length) is
-// filtered too: with a hair-thin tube, the sphere's cap inside the effector's cylinder goes and
-// the rest stays.
+// The end effector's body at the top of the tube (robot.effector) is filtered too, each of its
+// cylinders where it is: with a hair-thin tube, a 1 cm plate on the flange and a 3 cm body below
+// it, the sphere's cap inside either goes, and the rest stays (beside the plate as well).
 TEST(CameraProxy, SelfFilterRemovesTheEndEffectorsBody) {
   const auto rig = defaultRig(320, 240);
   const Scene s = scene();
   PerceptionConfig cfg;
   cfg.self_filter.radius = 0.001;
   cfg.self_filter.length = 0.2;
-  cfg.self_filter.effector_radius = 0.03;
-  cfg.self_filter.effector_length = 0.06;
+  cfg.self_filter.effector = {{0.01, 0.03}, {0.03, 0.06}};
   cfg.self_filter.margin = 0.005;
-  // Spraying down with the tip 20 cm under the sphere's top: the effector spans 8 to 14 cm up.
+  // Spraying down with the tip 19 cm under the sphere's top: the flange 1 cm over it, the plate
+  // from there down to 11 cm, the body on to 5 cm.
   Pose T_cell_nozzle = Pose::Identity();
   T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
   T_cell_nozzle.translation() = Point(0.02, 0.01, -0.06);
@@ -225,12 +225,17 @@ TEST(CameraProxy, SelfFilterRemovesTheEndEffectorsBody) {
   ASSERT_EQ(out.size(), 1u);
   EXPECT_GT(out[0].on_nozzle, 100u);
   const Pose T_nozzle_cell = T_cell_nozzle.inverse(Eigen::Isometry);
+  const double leaf = cfg.voxel_leaf;
+  int beside_plate = 0;
   for (const Point& p : out[0].points) {
-    const Point q = T_nozzle_cell * p;  // the effector: z from -0.2 to -0.14, within 3.5 cm of the axis
-    const bool inside =
-        q.z() > -0.2 + cfg.voxel_leaf && q.z() < -0.14 - cfg.voxel_leaf && q.head<2>().norm() < 0.035 - cfg.voxel_leaf;
-    ASSERT_FALSE(inside) << p.transpose();
+    const Point q = T_nozzle_cell * p;  // the plate: z from -0.2 to -0.17; the body: on to -0.11
+    const double r = q.head<2>().norm();
+    const bool plate = q.z() > -0.2 + leaf && q.z() < -0.17 - leaf;
+    ASSERT_FALSE(plate && r < 0.015 - leaf) << p.transpose();
+    ASSERT_FALSE(q.z() > -0.17 + leaf && q.z() < -0.11 - leaf && r < 0.035 - leaf) << p.transpose();
+    beside_plate += plate && r > 0.015 + leaf;
   }
+  EXPECT_GT(beside_plate, 10);  // within the body's radius but beside the plate: kept
 }
 
 // config.agreement: a camera whose frames claim a pose 1 deg off its true one is flagged after

@@ -65,7 +65,7 @@ CheckReport checkWaypoints(const std::vector<Waypoint>& waypoints, const std::ve
     std::shared_ptr<fcl::CollisionGeometryd> shape;
   };
   std::vector<Link> links;
-  if (const robot::EffectorBody e = robot::effectorBody(arm); !e.empty())
+  for (const robot::EffectorBody& e : robot::effectorBodies(arm))
     links.push_back({"effector", 6, e.T_flange_body, std::make_shared<fcl::Cylinderd>(e.radius, e.length)});
   for (const robot::LinkCapsule& c : robot::linkCapsules())
     links.push_back(

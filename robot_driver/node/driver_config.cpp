@@ -52,8 +52,7 @@ RobotSection readRobotSection(const node::CellConfig& cell) {
   // Arm: base pose, tool, limits (rad, rad/s, rad/s^2).
   r.readPose("base_pose", d.arm.T_cell_base);
   r.readPose("tool_offset", d.arm.T_flange_nozzle);
-  r.read("tool_radius", d.arm.tool_radius, 0.0, 0.5);
-  r.read("effector_length", d.arm.effector_length, 0.0, 2.0);
+  node::readEffector(r, "effector", d.arm.effector);
   readJoints(r, "q_min", d.arm.q_min, -2 * kPi, 2 * kPi);
   readJoints(r, "q_max", d.arm.q_max, -2 * kPi, 2 * kPi);
   readJoints(r, "qd_max", d.arm.qd_max, 1e-3, 20.0);

@@ -202,14 +202,13 @@ std::vector<LinkCapsule> linkCapsules() {
   };
 }
 
-EffectorBody effectorBody(const ArmConfig& arm) {
+std::vector<EffectorBody> effectorBodies(const ArmConfig& arm) {
   const Eigen::Vector3d tip = arm.T_flange_nozzle.translation();
   const Eigen::Vector3d axis = tip.norm() > 1e-9 ? Eigen::Vector3d(tip.normalized()) : Eigen::Vector3d::UnitZ();
-  EffectorBody body;
-  body.radius = arm.tool_radius;
-  body.length = std::min(arm.effector_length, tip.norm());
-  body.T_flange_body = segmentFrame(Eigen::Vector3d::Zero(), body.length * axis);
-  return body;
+  std::vector<EffectorBody> bodies;
+  for (const EffectorSpan& s : effectorSpans(arm.effector, tip.norm()))
+    bodies.push_back({segmentFrame(s.from * axis, s.to * axis), s.radius, s.to - s.from});
+  return bodies;
 }
 
 }  // namespace depowder::robot

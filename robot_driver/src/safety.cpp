@@ -131,7 +131,8 @@ double armModelId(const ArmConfig& arm, const Workspace& workspace) {
     for (int k = 0; k < 16; ++k) d.add(T->matrix().data()[k]);
   for (const Joints* q : {&arm.q_min, &arm.q_max, &arm.qd_max, &arm.qdd_max, &arm.q_home, &arm.ik_weights})
     for (double v : *q) d.add(v);
-  d.add(arm.tool_radius).add(arm.effector_length);
+  d.add(static_cast<double>(arm.effector.size()));
+  for (const EffectorSection& s : arm.effector) d.add(s.radius).add(s.length);
   for (int k = 0; k < 3; ++k) d.add(workspace.min[k]).add(workspace.max[k]);
   return d.value();
 }

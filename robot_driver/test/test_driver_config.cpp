@@ -38,8 +38,9 @@ TEST(DriverConfig, DefaultCellRobotSection) {
   EXPECT_EQ(s.driver.session.client.port, 5007);
   EXPECT_EQ(s.driver.session.slave_mode, 0x202);
   EXPECT_NEAR(s.driver.arm.T_flange_nozzle.translation().z(), 0.25, 1e-12);  // end effector + tube
-  EXPECT_DOUBLE_EQ(s.driver.arm.tool_radius, 0.045);                         // the end effector's body
-  EXPECT_DOUBLE_EQ(s.driver.arm.effector_length, 0.129);
+  ASSERT_EQ(s.driver.arm.effector.size(), 2u);                               // the end effector's body:
+  EXPECT_DOUBLE_EQ(s.driver.arm.effector[0].radius, 0.0445);                 // its plate on the flange
+  EXPECT_DOUBLE_EQ(s.driver.arm.effector[1].length, 0.121);                  // and the rest
   EXPECT_GE(s.node.state_rate_hz, 125.0);
   EXPECT_EQ(s.driver.session.vacuum_variable, "IO24");
   EXPECT_DOUBLE_EQ(s.driver.safety.plan_max_age_s, 1.5);
@@ -103,7 +104,8 @@ TEST(DriverConfig, ArmModelIdFollowsTheArmOnly) {
                        "rpy_deg: [0, 0, 0]}\n"));
   EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  workspace: {min: [-0.2, -0.15, "
                        "0.0], max: [0.2, 0.15, 0.5]}\n"));
-  EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  effector_length: 0.1\n"));
+  EXPECT_NE(base, idOf("  base_pose: {xyz: [-0.55, 0.0, 0.0], rpy_deg: [0, 0, 0]}\n  effector: [{radius: 0.03, length: "
+                       "0.1}]\n"));
 }
 
 TEST(DriverConfig, RefusesBadValues) {
@@ -117,6 +119,12 @@ TEST(DriverConfig, RefusesBadValues) {
   expectError("  workspace: {min: [0, 0, 0], max: [0.1, -0.1, 0.1]}\n", "workspace");
   expectError("  state_rate: 50\n", "state_rate");
   expectError("  tool_io: {vacuum: IO24, water: IO26}\n", "water");
+  expectError("  tool_radius: 0.045\n", "tool_radius");  // the single cylinder's key before robot.effector
+  expectError("  effector: [{radius: 0.03}]\n", "robot.effector[0].length");
+  expectError("  effector: [{radius: 0.03, length: -0.1}]\n", "(0, 2] m");
+  expectError("  effector: [{radius: .nan, length: 0.1}]\n", "radius");
+  expectError("  effector: [{radius: 0.03, length: 0.1, colour: red}]\n", "colour");
+  expectError("  effector: {radius: 0.03, length: 0.1}\n", "must be a list");
 }
 
 // NOZZLE_PLAN -> Plan (plan_msg.hpp): what the driver refuses before preparePlan sees a plan.

@@ -204,28 +204,38 @@ TEST(Capsules, EncloseUrdfMeshes) {
   }
 }
 
-// The end effector's cylinder (the cell's tool_radius and effector_length) holds the authors'
-// vacuum end effector, mm, its axis along z from the flange face (measured: 44.48 mm from the
-// axis at most, 0.4 to 128.9 mm along it).
-TEST(Capsules, EffectorCylinderHoldsTheAuthorsEndEffector) {
+// The end effector's cylinders (the cell's robot.effector) hold the authors' vacuum end effector,
+// mm, its axis along z from the flange face (measured: 44.48 mm from the axis at most up to
+// 7.0 mm along it, 28.6 mm from there to 128.9 mm), and fit it: the single cylinder of its
+// widest radius the cell had before was 16 mm too wide along 94 % of its length.
+TEST(Capsules, EffectorCylindersHoldTheAuthorsEndEffector) {
   const std::filesystem::path path = std::filesystem::path(DEPOWDER_SHARED_DATA) / "robot" / "vacuum_end_effector.stl";
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no reference mesh at " << path;
   ArmConfig arm = cellArm();
   arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.25);  // config/cell.yaml: the end effector and a tube
-  const EffectorBody body = effectorBody(arm);
-  const Pose T_effector_flange = body.T_flange_body.inverse();
-  double radial = 0, axial = 0;
+  const std::vector<EffectorBody> bodies = effectorBodies(arm);
+  ASSERT_EQ(bodies.size(), 2u);
+  std::vector<double> room(bodies.size(), 1.0);  // per cylinder: how far inside it its points stay at the least, m
   for (const Eigen::Vector3d& v : loadMesh(path.string(), 0.001).vertices) {
-    const Eigen::Vector3d local = T_effector_flange * v;
-    radial = std::max(radial, local.head<2>().norm());
-    axial = std::max(axial, std::abs(local.z()));
+    bool inside = false;
+    for (std::size_t k = 0; k < bodies.size(); ++k) {
+      const Eigen::Vector3d local = bodies[k].T_flange_body.inverse() * v;
+      if (std::abs(local.z()) > 0.5 * bodies[k].length + 1e-9) continue;
+      inside = inside || local.head<2>().norm() <= bodies[k].radius;
+      room[k] = std::min(room[k], bodies[k].radius - local.head<2>().norm());
+    }
+    EXPECT_TRUE(inside) << "vertex (" << v.transpose() << ") is outside the end effector's cylinders";
   }
-  EXPECT_LE(radial, body.radius);
-  EXPECT_LE(axial, 0.5 * body.length);
-  // The cylinder starts at the flange and points at the tip; it never reaches past the tip.
-  EXPECT_DOUBLE_EQ(body.length, 0.129);
-  EXPECT_TRUE((body.T_flange_body * Eigen::Vector3d(0, 0, -0.5 * body.length)).isZero(1e-12));
-  EXPECT_TRUE((body.T_flange_body.linear() * Eigen::Vector3d::UnitZ()).isApprox(Eigen::Vector3d::UnitZ()));
+  EXPECT_LT(room[0], 0.0005);  // each cylinder as wide as the mesh, within 0.5 mm
+  EXPECT_LT(room[1], 0.0005);
+  // One after the other from the flange, along the tool; they never reach past the tip.
+  EXPECT_TRUE((bodies[0].T_flange_body * Eigen::Vector3d(0, 0, -0.5 * bodies[0].length)).isZero(1e-12));
+  EXPECT_TRUE(
+      (bodies[1].T_flange_body * Eigen::Vector3d(0, 0, 0.5 * bodies[1].length)).isApprox(Eigen::Vector3d(0, 0, 0.129)));
+  EXPECT_TRUE((bodies[1].T_flange_body.linear() * Eigen::Vector3d::UnitZ()).isApprox(Eigen::Vector3d::UnitZ()));
   arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.1);
-  EXPECT_DOUBLE_EQ(effectorBody(arm).length, 0.1);
+  EXPECT_DOUBLE_EQ(effectorBodies(arm).back().length, 0.1 - 0.008);
+  arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.005);
+  ASSERT_EQ(effectorBodies(arm).size(), 1u);
+  EXPECT_DOUBLE_EQ(effectorBodies(arm).front().length, 0.005);
 }

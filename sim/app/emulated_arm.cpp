@@ -39,7 +39,7 @@ EmulatedArm::EmulatedArm(const BcapEmulator& emulator, robot::ArmConfig arm)
     links_.push_back(c.link);
     meshes_.push_back(capsuleMesh(c.p0, c.p1, c.radius));
   }
-  if (const robot::EffectorBody e = robot::effectorBody(arm_); !e.empty()) {
+  for (const robot::EffectorBody& e : robot::effectorBodies(arm_)) {
     // A cylinder from z = -length to 0, centred on the body's pose.
     Pose T_body_cylinder = Pose::Identity();
     T_body_cylinder.translation().z() = 0.5 * e.length;

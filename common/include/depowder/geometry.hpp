@@ -58,4 +58,21 @@ Cloud rotated(const Cloud& normals, const Pose& T);
 /// `around` m round its side (strict bounds).
 bool onNozzleBody(const Point& p_nozzle, double length, double radius, double along, double around);
 
+/// One cylinder of the end effector's body, m. The body is a list of them on the tool axis, one
+/// after another from the flange towards the nozzle tip (robot.effector).
+struct EffectorSection {
+  double radius = 0, length = 0;
+};
+/// The authors' vacuum end effector (data/robot/vacuum_end_effector.stl, 12.9 cm long): a plate on
+/// the flange 44.5 mm in radius and 8 mm thick, then a body 28.6 mm in radius.
+std::vector<EffectorSection> vacuumEffector();
+
+/// A section placed on the tool axis: from `from` to `to` m from the flange.
+struct EffectorSpan {
+  double from = 0, to = 0, radius = 0;
+};
+/// The sections placed one after another from the flange and cut at `reach` m (the nozzle tip);
+/// those left with no length or radius are left out.
+std::vector<EffectorSpan> effectorSpans(const std::vector<EffectorSection>& sections, double reach);
+
 }  // namespace depowder

@@ -94,6 +94,21 @@ CellConfig loadCellFromString(const std::string& text, const std::string& file) 
   return readCell(YamlReader::loadString(text, file));
 }
 
+void readEffector(const YamlReader& section, const std::string& key, std::vector<EffectorSection>& value) {
+  const std::vector<YamlReader> items = section.items(key);
+  if (!section.has(key)) return;  // absent or null: the default
+  value.clear();
+  for (const YamlReader& item : items) {
+    EffectorSection s;
+    item.require("radius", s.radius);
+    item.require("length", s.length);
+    if (!(s.radius > 0 && s.radius <= 0.5)) item.fail("radius", "must be in (0, 0.5] m");
+    if (!(s.length > 0 && s.length <= 2)) item.fail("length", "must be in (0, 2] m");
+    item.finish();
+    value.push_back(s);
+  }
+}
+
 std::string defaultCellPath() {
   if (const char* env = std::getenv("DEPOWDER_CELL")) return env;
   return DEPOWDER_DEFAULT_CELL;

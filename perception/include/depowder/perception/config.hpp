@@ -2,7 +2,9 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
+#include "depowder/geometry.hpp"
 #include "depowder/perception/camera_agreement.hpp"
 
 namespace depowder::perception {
@@ -26,11 +28,9 @@ struct MergerConfig {
 struct SelfFilterConfig {
   double radius = 0.0125;  ///< m, the nozzle body's radius (as planner.nozzle.radius)
   double length = 0.25;    ///< m of body above the tip (as planner.nozzle.length)
-  /// The end effector's body at the top of the nozzle body: its radius (as robot.tool_radius)
-  /// and how far down from the top it reaches (as robot.effector_length; a longer one is taken
-  /// from the tip up), m.
-  double effector_radius = 0.045;
-  double effector_length = 0.129;
+  /// The end effector's body at the top of the nozzle body, cylinders from there towards the
+  /// tip (as robot.effector; cut at the tip).
+  std::vector<EffectorSection> effector = vacuumEffector();
   /// m around the body: range noise, the robot state up to 4 ms from the frame (ROBOT_STATE at
   /// 125 Hz). Not more: where the part touches or falls against the nozzle its own points go too
   /// (1 cm cost the toppling pipe its track); < 0: off.

@@ -24,12 +24,10 @@ struct ArmConfig {
   Joints qdd_max{8, 8, 8, 12, 12, 20};                      ///< rad/s^2
   Joints q_home{0, 0.3, 1.6, 0, 1.2, 0};                    ///< rad, a safe pose above the box
   Joints ik_weights{1, 1, 1, 0.5, 0.5, 0.3};  ///< weights of the joint distance that picks the IK solution
-  /// The end effector's body: a cylinder on the tool axis from the flange, this radius and length
-  /// (m; the authors' vacuum end effector is 12.9 cm long, 44.5 mm in radius at its flange plate
-  /// and 28.6 mm below it), ending at the nozzle tip at the most (effectorBody). The nozzle tube
-  /// (the planner's nozzle cylinder) runs on to the tip.
-  double tool_radius = 0.045;
-  double effector_length = 0.129;
+  /// The end effector's body: cylinders on the tool axis from the flange (the authors' vacuum end
+  /// effector), ending at the nozzle tip at the most (effectorBodies). The nozzle tube (the
+  /// planner's nozzle cylinder) runs on to the tip.
+  std::vector<EffectorSection> effector = vacuumEffector();
 };
 
 /// Kinematic constants of the chain (REFERENCE.md), metres.
@@ -83,13 +81,12 @@ struct LinkCapsule {
 /// public URDF meshes. World pose of capsule c: T_cell_base * linkPoses(q)[c.link].
 std::vector<LinkCapsule> linkCapsules();
 
-/// The end effector's body as a cylinder on the flange (ArmConfig::tool_radius, effector_length,
-/// ending at the nozzle tip at the most).
+/// One cylinder of the end effector's body on the flange (ArmConfig::effector, cut at the
+/// nozzle tip).
 struct EffectorBody {
   Pose T_flange_body = Pose::Identity();  ///< centred; its z axis along the tool axis, towards the tip
   double radius = 0, length = 0;          ///< m
-  bool empty() const { return !(radius > 0 && length > 0); }
 };
-EffectorBody effectorBody(const ArmConfig& arm);
+std::vector<EffectorBody> effectorBodies(const ArmConfig& arm);
 
 }  // namespace depowder::robot

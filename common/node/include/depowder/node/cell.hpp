@@ -78,6 +78,10 @@ CellConfig loadCellFromString(const std::string& text, const std::string& file =
 /// (`cell_model`), so that on several hosts depowder-status can tell cell files that differ.
 double cellModelId(const CellConfig& cell);
 
+/// An end effector's body, `key` in `section` (robot.effector, perception.self_filter.effector):
+/// a list of {radius, length} (m) from the flange towards the tip. Kept as is if absent.
+void readEffector(const YamlReader& section, const std::string& key, std::vector<EffectorSection>& value);
+
 using depowder::lookAt;  ///< camera pose at a position looking at a target (geometry.hpp)
 
 /// Default config file: $DEPOWDER_CELL, else config/cell.yaml of the source tree.
