@@ -87,6 +87,8 @@ Cloud rotated(const Cloud& normals, const Pose& T) {
   return out;
 }
 
+double focalLength(int pixels, double fov_deg) { return 0.5 * pixels / std::tan(0.5 * fov_deg * M_PI / 180.0); }
+
 bool onNozzleBody(const Point& p, double length, double radius, double along, double around) {
   const double r = radius + around;
   return p.z() < along && p.z() > -(length + along) && p.head<2>().squaredNorm() < r * r;

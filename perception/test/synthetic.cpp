@@ -77,8 +77,8 @@ PinholeCamera makeCamera(const std::string& name, int width, int height, const P
   c.name = name;
   c.width = width;
   c.height = height;
-  c.fx = 0.5 * width / std::tan(0.5 * fov_h_deg * M_PI / 180.0);
-  c.fy = 0.5 * height / std::tan(0.5 * fov_v_deg * M_PI / 180.0);
+  c.fx = focalLength(width, fov_h_deg);
+  c.fy = focalLength(height, fov_v_deg);
   c.cx = 0.5 * (width - 1);
   c.cy = 0.5 * (height - 1);
   c.min_range = 0.25;  // L515

@@ -287,12 +287,8 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
 }  // namespace
 
 CameraModel cameraModelOf(const node::CameraConfig& c) {
+  // The intrinsics of node::CameraConfig (focalLength), so DEPTH_* carries those the cell expects.
   CameraModel m = CameraModel::fromFov(c.name, c.width, c.height, c.fov_h_deg, c.fov_v_deg, c.T_cell_camera);
-  // The same formulas as node::CameraConfig, so DEPTH_* carries the intrinsics the cell expects.
-  m.fx = c.fx();
-  m.fy = c.fy();
-  m.cx = c.cx();
-  m.cy = c.cy();
   m.min_range = c.min_range;
   m.max_range = c.max_range;
   m.rate_hz = c.rate_hz;

@@ -1,7 +1,5 @@
 #include "depowder/sim/camera.hpp"
 
-#include <cmath>
-
 namespace depowder::sim {
 
 CameraModel CameraModel::fromFov(std::string name, int width, int height, double fov_h_deg, double fov_v_deg,
@@ -10,8 +8,8 @@ CameraModel CameraModel::fromFov(std::string name, int width, int height, double
   c.name = std::move(name);
   c.width = width;
   c.height = height;
-  c.fx = 0.5 * width / std::tan(0.5 * fov_h_deg * M_PI / 180.0);
-  c.fy = 0.5 * height / std::tan(0.5 * fov_v_deg * M_PI / 180.0);
+  c.fx = focalLength(width, fov_h_deg);
+  c.fy = focalLength(height, fov_v_deg);
   c.cx = 0.5 * (width - 1);
   c.cy = 0.5 * (height - 1);
   c.T_cell_camera = T_cell_camera;

@@ -13,8 +13,8 @@ namespace {
 struct Intrinsics {
   double fx, fy, cx, cy;
   explicit Intrinsics(const Camera& c)
-      : fx(0.5 * c.width / std::tan(0.5 * c.fov_h_deg * M_PI / 180.0)),
-        fy(0.5 * c.height / std::tan(0.5 * c.fov_v_deg * M_PI / 180.0)),
+      : fx(focalLength(c.width, c.fov_h_deg)),
+        fy(focalLength(c.height, c.fov_v_deg)),
         cx(0.5 * (c.width - 1)),
         cy(0.5 * (c.height - 1)) {}
 };

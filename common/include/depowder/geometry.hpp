@@ -47,6 +47,10 @@ Eigen::AlignedBox3d bounds(const Cloud& cloud);
 /// Axis-aligned bounds of `box` posed by T (its eight corners moved).
 Eigen::AlignedBox3d bounds(const Eigen::AlignedBox3d& box, const Pose& T);
 
+/// A pinhole camera's focal length, pixels, for `pixels` across a field of view of `fov_deg`:
+/// pixels / 2 / tan(fov / 2). The principal point of such a camera is at (pixels - 1) / 2.
+double focalLength(int pixels, double fov_deg);
+
 /// p -> T * p for every point.
 Cloud transformed(const Cloud& cloud, const Pose& T);
 

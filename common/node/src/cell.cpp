@@ -1,6 +1,5 @@
 #include "depowder/node/cell.hpp"
 
-#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -12,8 +11,8 @@ namespace depowder::node {
 
 const std::vector<std::string> kModuleSections = {"perception", "tracker", "progress", "planner", "robot", "sim"};
 
-double CameraConfig::fx() const { return 0.5 * width / std::tan(0.5 * fov_h_deg * M_PI / 180.0); }
-double CameraConfig::fy() const { return 0.5 * height / std::tan(0.5 * fov_v_deg * M_PI / 180.0); }
+double CameraConfig::fx() const { return focalLength(width, fov_h_deg); }
+double CameraConfig::fy() const { return focalLength(height, fov_v_deg); }
 
 namespace {
 

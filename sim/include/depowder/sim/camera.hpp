@@ -42,7 +42,7 @@ struct CameraModel {
   /// The pose its frames carry: the claimed one where there is one.
   Pose framePose() const { return T_cell_camera_claimed.value_or(T_cell_camera); }
 
-  /// Intrinsics from the field of view, like node::CameraConfig (fx = w/2 / tan(fov_h/2), cx = (w-1)/2).
+  /// Intrinsics from the field of view, as node::CameraConfig's (focalLength, cx = (w-1)/2).
   static CameraModel fromFov(std::string name, int width, int height, double fov_h_deg, double fov_v_deg,
                              const Pose& T_cell_camera);
 };
