@@ -1,7 +1,6 @@
 // The default cell's parts: size, frame, closed outward-wound shells, the committed STLs, and
 // depowder-make-parts --check on a part and on a broken one.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -13,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "depowder/child_process.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/parts.hpp"
 
@@ -124,9 +124,9 @@ TEST(MakeParts, CheckSaysWhetherTheSimulatorTakesAMesh) {
   const std::string tool = std::string(DEPOWDER_BIN_DIR) + "/depowder-make-parts --check ";
   const std::string out = ::testing::TempDir() + "make_parts_check.txt";
   auto run = [&](const std::string& args) {
-    const int status = std::system((tool + args + " > " + out + " 2>&1").c_str());
+    const int status = depowder::testutil::shellExitStatus(tool + args + " > " + out + " 2>&1");
     std::ifstream in(out);
-    return std::pair{WIFEXITED(status) ? WEXITSTATUS(status) : -1, std::string(std::istreambuf_iterator<char>(in), {})};
+    return std::pair{status, std::string(std::istreambuf_iterator<char>(in), {})};
   };
   const std::string cube = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/cube.stl";
   const auto [ok, said] = run(cube);

@@ -10,6 +10,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 
+#include "depowder/child_process.hpp"
 #include "depowder/depth_image_t.hpp"
 #include "depowder/sim_truth_t.hpp"
 #include "setup.hpp"
@@ -69,8 +70,7 @@ int run(const std::string& args, const std::string& log = "") {
   std::string cmd = std::string(DEPOWDER_BIN_DIR) + "/depowder-sim " + args + " > " + (scratch() / "out.txt").string() +
                     " 2> " + (scratch() / "err.txt").string();
   if (!log.empty()) cmd = "LCM_DEFAULT_URL='file://" + log + "?mode=w' " + cmd;
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return testutil::shellExitStatus(cmd);
 }
 
 std::string slurp(const fs::path& p) {

@@ -3,7 +3,6 @@
 // the frame's utime; garbage and empty frames are reported and the process keeps running;
 // SIGTERM stops it cleanly; a broken mesh is a start-up error naming the file.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -113,17 +112,13 @@ TEST_F(TrackerProcess, BrokenMeshIsAStartUpError) {
   const std::string cell = process_.dir() + "/cell.yaml";
   std::ofstream(cell) << cellYaml(broken, Pose::Identity());
   const std::string log = process_.dir() + "/stderr.txt";
-  const int rc = std::system((process_.exe() + " --config " + cell + " --url memq:// 2> " + log).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 1);
+  EXPECT_EQ(testutil::shellExitStatus(process_.exe() + " --config " + cell + " --url memq:// 2> " + log), 1);
   std::stringstream err;
   err << std::ifstream(log).rdbuf();
   EXPECT_NE(err.str().find(broken), std::string::npos) << err.str();
 
-  const int help = std::system((process_.exe() + " --help > /dev/null").c_str());
-  EXPECT_EQ(WEXITSTATUS(help), 0);
-  const int bad = std::system((process_.exe() + " --method gicp 2> /dev/null").c_str());
-  EXPECT_EQ(WEXITSTATUS(bad), 2);
+  EXPECT_EQ(testutil::shellExitStatus(process_.exe() + " --help > /dev/null"), 0);
+  EXPECT_EQ(testutil::shellExitStatus(process_.exe() + " --method gicp 2> /dev/null"), 2);
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
@@ -25,6 +26,13 @@
 extern char** environ;
 
 namespace depowder::testutil {
+
+/// Runs `command` through the shell and waits for it: its exit status, or -1 if it did not exit
+/// (a signal ended it).
+inline int shellExitStatus(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
 
 /// True when this process sees no network interface but loopback (as inside test/netns-run),
 /// so udpm multicast cannot reach a real interface. `why` lists the interfaces otherwise.

@@ -1,7 +1,6 @@
 // depowder-eval on short runs: the JSON's shape, CU-ICP's errors under generous bounds,
 // determinism for a seed, the report's tables, and the command line.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -14,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "depowder/child_process.hpp"
 #include "depowder/eval/experiment.hpp"
 #include "depowder/eval/report.hpp"
 #include "depowder/files.hpp"
@@ -587,8 +587,7 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
                                 " static --push-speed 0.01",
                                 " moving --push-speed 0",
                                 " moving --push-speed 1"}) {
-    const int status = std::system((bin + bad + " > /dev/null 2>&1").c_str());
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
+    EXPECT_EQ(testutil::shellExitStatus(bin + bad + " > /dev/null 2>&1"), 2) << bad;
   }
 }
 
