@@ -53,7 +53,7 @@ int usage(const std::string& error = "") {
          "  --snapshot-on-phase DIR  a picture DIR/<part>-phase<k>-<name>.png when a part's phase changes\n"
          "  --duration S          stop after S seconds (default: until SIGINT/SIGTERM or the window closes)\n"
          "  Red: CAD model at the estimated pose; green: template; faint grey: ground truth (SIM_TRUTH);\n"
-         "  orange: powder contour; blue: nozzle plan; cylinder: nozzle.\n";
+         "  orange: powder contour; blue: nozzle plan; cylinders: the tool.\n";
   return error.empty() ? 0 : 2;
 }
 

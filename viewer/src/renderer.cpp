@@ -53,7 +53,7 @@ constexpr Rgb kPlan{0.20, 0.45, 1.00};
 constexpr Rgb kBox{0.55, 0.55, 0.60};
 constexpr Rgb kBackground{0.10, 0.10, 0.12};
 constexpr double kTruthOpacity = 0.25;
-constexpr double kNozzleRadius = 0.008, kNozzleLength = 0.06;  // m
+constexpr double kMarkerRadius = 0.008, kMarkerLength = 0.06;  // m, the nozzle drawn when the cell's tool is not known
 
 void setColor(vtkActor* a, const Rgb& c) { a->GetProperty()->SetColor(c.r, c.g, c.b); }
 
@@ -231,6 +231,7 @@ struct Renderer::Impl {
   Scene::Versions seen;
   bool first = true;
   Eigen::Vector3d box_size = Eigen::Vector3d::Zero();
+  std::shared_ptr<const Mesh> tool_mesh;  ///< the one drawn
   std::map<const Mesh*, vtkSmartPointer<vtkPolyData>> mesh_cache;
 
   vtkPolyData* meshData(const std::shared_ptr<const Mesh>& mesh) {
@@ -342,6 +343,11 @@ struct Renderer::Impl {
   }
 
   void updateNozzle(const Scene& scene) {
+    if (first || scene.tool_mesh != tool_mesh) {
+      tool_mesh = scene.tool_mesh;
+      vtkPolyDataMapper::SafeDownCast(nozzle->GetMapper())
+          ->SetInputData(meshPolyData(tool_mesh ? *tool_mesh : cylinderMesh(kMarkerRadius, kMarkerLength, 16)));
+    }
     nozzle->SetVisibility(scene.has_nozzle);
     nozzle->SetUserMatrix(toVtk(scene.T_cell_nozzle));
     setColor(nozzle, toolColor(scene.tool));
@@ -386,8 +392,7 @@ Renderer::Renderer(const RenderOptions& options) : impl_(std::make_unique<Impl>(
   d.plan->GetProperty()->SetPointSize(5);
   d.plan->GetProperty()->LightingOff();
   d.renderer->AddActor(d.plan);
-  const Mesh nozzle = cylinderMesh(kNozzleRadius, kNozzleLength, 16);
-  d.nozzle = makeActor(meshPolyData(nozzle));
+  d.nozzle = makeActor(meshPolyData({}));  // the tool's mesh at the first update
   d.nozzle->GetProperty()->SetAmbient(0.3);
   d.nozzle->SetVisibility(false);
   d.renderer->AddActor(d.nozzle);

@@ -1,5 +1,6 @@
 #include "depowder/viewer/scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -42,7 +43,29 @@ Scene sceneFromCell(const node::CellConfig& cell) {
     p.mesh = std::make_shared<const Mesh>(loadMesh(pc.mesh, pc.mesh_scale));
     p.T_cell_part = pc.T_cell_part_init;  // drawn only once the tracker has spoken
   }
+  scene.tool_mesh = std::make_shared<const Mesh>(toolOfCell(cell));
   return scene;
+}
+
+Mesh toolOfCell(const node::CellConfig& cell) {
+  const node::YamlReader robot = cell.root.child("robot");
+  const node::YamlReader nozzle = cell.root.child("planner").child("nozzle");
+  double radius = 0.0125, length = 0.13;  // planner::NozzleConfig's defaults
+  nozzle.read("radius", radius);
+  nozzle.read("length", length);
+  Pose T_flange_nozzle = Pose::Identity();
+  robot.readPose("tool_offset", T_flange_nozzle);
+  std::vector<EffectorSection> effector = vacuumEffector();
+  node::readEffector(robot, "effector", effector);
+  const double flange = T_flange_nozzle.translation().norm();  // the flange at z = -flange
+  constexpr int kSegments = 24;
+  Mesh tool = cylinderMesh(radius, std::max(length, flange), kSegments);
+  for (const EffectorSpan& s : effectorSpans(effector, flange)) {
+    Pose T = Pose::Identity();
+    T.translation().z() = s.to - flange;
+    append(tool, transformed(cylinderMesh(s.radius, s.to - s.from, kSegments), T));
+  }
+  return tool;
 }
 
 void SceneModel::reject(const std::string& why) {

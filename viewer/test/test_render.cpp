@@ -128,6 +128,22 @@ TEST_F(Render, KnownSceneProjectsWhereThePinholeModelSays) {
       }
 }
 
+// The cell's tool replaces the small marker: a tube 2.5 cm round and 12 cm long shows cyan
+// 10 cm above the tip, where the 6 cm marker did not reach.
+TEST_F(Render, TheCellsToolIsDrawnAtTheNozzle) {
+  Scene s = knownScene();
+  const RenderOptions o = options(s, 640, 480);
+  auto px = [&](const Eigen::Vector3d& p) { return project(o.camera, o.width, o.height, p); };
+  const Eigen::Vector2d up_the_tube = px(s.T_cell_nozzle * Eigen::Vector3d(0, 0, -0.10));
+  Renderer marker(o);
+  marker.update(s);
+  EXPECT_FALSE(anyNear(marker.capture(), up_the_tube, 0, isCyan));
+  s.tool_mesh = std::make_shared<const Mesh>(cylinderMesh(0.0125, 0.12, 16));
+  Renderer tool(o);
+  tool.update(s);
+  EXPECT_TRUE(anyNear(tool.capture(), up_the_tube, 1, isCyan));
+}
+
 TEST_F(Render, NothingRedOrGreenBeforeTheTrackerSpeaks) {
   Scene s = knownScene();
   s.parts[0].has_estimate = false;

@@ -177,10 +177,27 @@ TEST(SceneModel, SceneFromCellLoadsMeshesAndBox) {
   ASSERT_TRUE(s.parts[0].mesh);
   EXPECT_NEAR(s.parts[0].mesh->vertices[1].x(), 0.1, 1e-6);
   EXPECT_FALSE(s.parts[0].has_estimate);  // nothing drawn red before the tracker speaks
+  ASSERT_TRUE(s.tool_mesh);               // no robot or planner section: the planner's 13 cm tube
+  EXPECT_NEAR(bounds(*s.tool_mesh).min().z(), -0.13, 1e-9);
+  EXPECT_NEAR(bounds(*s.tool_mesh).max().x(), 0.0125, 1e-9);
 
   std::ofstream(dir / "bad.yaml") << "parts:\n  - name: x\n    mesh: missing.stl\n";
   EXPECT_THROW(sceneFromCell(node::loadCell((dir / "bad.yaml").string())), MeshError);
   std::filesystem::remove_all(dir);
+}
+
+// The tool drawn at the nozzle, from the default cell: the 25 cm tube to the flange and the
+// authors' end effector below it (its plate and its body), in the nozzle frame.
+TEST(SceneModel, ToolOfCellIsTheTubeAndTheEndEffector) {
+  const Mesh tool = toolOfCell(node::loadCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/cell.yaml"));
+  const Eigen::AlignedBox3d b = bounds(tool);
+  EXPECT_NEAR(b.min().z(), -0.25, 1e-9);
+  EXPECT_NEAR(b.max().z(), 0.0, 1e-9);
+  EXPECT_NEAR(b.max().x(), 0.0445, 1e-9);
+  // Three closed cylinders of 24 facets: their prisms' volumes add up.
+  auto prism = [](double r, double l) { return 0.5 * 24 * r * r * std::sin(2 * M_PI / 24) * l; };
+  EXPECT_NEAR(volume(tool), prism(0.0125, 0.25) + prism(0.0445, 0.008) + prism(0.0286, 0.121), 1e-9);
+  EXPECT_EQ(closednessProblem(tool), "");
 }
 
 // Through a real (in-process) LCM bus: the newest message of each kind wins, so frames

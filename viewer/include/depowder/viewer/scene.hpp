@@ -73,6 +73,10 @@ struct Scene {
   Pose T_cell_nozzle = Pose::Identity();  ///< z axis = spray direction
   std::int8_t tool = 0;                   ///< waypoint_t::TOOL_*
   std::int8_t robot_mode = -1;            ///< robot_state_t::MODE_*, -1 = no ROBOT_STATE heard
+  /// The tool drawn at T_cell_nozzle, in the nozzle frame (tip at the origin, body along -z):
+  /// the nozzle tube up to the flange and the end effector on it (sceneFromCell). Null: a
+  /// small cylinder marks the tip.
+  std::shared_ptr<const Mesh> tool_mesh;
 
   bool has_truth = false;
 
@@ -117,8 +121,14 @@ class SceneModel {
   Rejected rejected_;
 };
 
-/// The box and the parts of a cell, meshes loaded. Throws MeshError naming the file.
+/// The box, the parts and the tool of a cell, meshes loaded. Throws MeshError naming the file,
+/// ConfigError a tool key that cannot be read.
 Scene sceneFromCell(const node::CellConfig& cell);
+
+/// The tool as the planner and the driver take it from the cell file: the nozzle tube
+/// (planner.nozzle radius, up to the flange at robot.tool_offset, or planner.nozzle.length if
+/// that is longer) and the end effector's cylinders below the flange (robot.effector).
+Mesh toolOfCell(const node::CellConfig& cell);
 
 /// Short names for the status text.
 const char* phaseName(int phase);         ///< "vacuum (buried)", ... "done", "-"
