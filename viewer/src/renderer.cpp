@@ -53,6 +53,7 @@ constexpr Rgb kPlan{0.20, 0.45, 1.00};
 constexpr Rgb kBox{0.55, 0.55, 0.60};
 constexpr Rgb kBackground{0.10, 0.10, 0.12};
 constexpr double kTruthOpacity = 0.25;
+constexpr double kToolOpacity = 0.6;  // the part stays visible through the tool above it
 constexpr double kMarkerRadius = 0.008, kMarkerLength = 0.06;  // m, the nozzle drawn when the cell's tool is not known
 
 void setColor(vtkActor* a, const Rgb& c) { a->GetProperty()->SetColor(c.r, c.g, c.b); }
@@ -394,6 +395,7 @@ Renderer::Renderer(const RenderOptions& options) : impl_(std::make_unique<Impl>(
   d.renderer->AddActor(d.plan);
   d.nozzle = makeActor(meshPolyData({}));  // the tool's mesh at the first update
   d.nozzle->GetProperty()->SetAmbient(0.3);
+  d.nozzle->GetProperty()->SetOpacity(kToolOpacity);
   d.nozzle->SetVisibility(false);
   d.renderer->AddActor(d.nozzle);
 
