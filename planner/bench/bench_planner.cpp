@@ -350,9 +350,12 @@ int main(int argc, char** argv) {
               "dropped/unr", "nozzle mm", "arm mm", "box mm");
   int collisions = 0;
   for (const auto& [what, t] : totals) {
-    std::printf("   %-28s %6d %9d %10d %8d %5d/%-5d %9.1f %9.1f %9.1f\n", what.c_str(), t.plans, t.waypoints,
-                t.collisions, t.ik_mismatch, t.dropped, t.unreachable, 1000 * t.min_nozzle, 1000 * t.min_arm,
-                1000 * t.min_box);
+    std::printf("   %-28s %6d %9d %10d %8d %5d/%-5d", what.c_str(), t.plans, t.waypoints, t.collisions, t.ik_mismatch,
+                t.dropped, t.unreachable);
+    if (t.waypoints > 0)
+      std::printf(" %9.1f %9.1f %9.1f\n", 1000 * t.min_nozzle, 1000 * t.min_arm, 1000 * t.min_box);
+    else
+      std::printf(" %9s %9s %9s\n", "-", "-", "-");  // no waypoint, no distance
     if (!t.first.empty()) std::printf("      first collision: %s\n", t.first.c_str());
     collisions += t.collisions + t.ik_mismatch;
     if (t.failed > 0) std::printf("      %d cycles without a plan\n", t.failed);
