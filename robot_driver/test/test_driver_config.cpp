@@ -108,6 +108,21 @@ TEST(DriverConfig, ArmModelIdFollowsTheArmOnly) {
                        "0.1}]\n"));
 }
 
+// robot.effector: an empty list is a bare nozzle (no end effector's body); a null or absent key
+// keeps the authors' end effector.
+TEST(DriverConfig, EffectorEmptyNullOrAbsent) {
+  auto effector = [](const std::string& robot_yaml) {
+    return readRobotSection(node::loadCellFromString("robot:\n" + robot_yaml, "effector.yaml")).driver.arm.effector;
+  };
+  EXPECT_TRUE(effector("  effector: []\n").empty());
+  EXPECT_EQ(effector("  effector:\n").size(), 2u);
+  EXPECT_EQ(effector("  state_rate: 125\n").size(), 2u);
+  const auto one = effector("  effector: [{radius: 0.03, length: 0.1}]\n");
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_DOUBLE_EQ(one[0].radius, 0.03);
+  EXPECT_DOUBLE_EQ(one[0].length, 0.1);
+}
+
 TEST(DriverConfig, RefusesBadValues) {
   expectError("  bogus: 1\n", "bogus");
   expectError("  plan_max_lead: 0\n", "plan_max_lead");
