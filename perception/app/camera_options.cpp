@@ -118,6 +118,8 @@ std::string usage() {
 CameraNodeOptions readCameraOptions(node::CellConfig cell) {
   CameraNodeOptions o(std::move(cell));
   o.files.camera.name = "FILES";
+  // The self-filter's end effector is the robot's, unless perception.self_filter.effector differs.
+  node::readEffector(o.cell.root.child("robot"), "effector", o.perception.self_filter.effector);
   readSection(o.cell.root.child("perception"), o);
   return o;
 }

@@ -24,11 +24,11 @@ std::optional<CameraNodeOptions> parse(std::vector<std::string> args) {
 }
 
 // A cell file in a fresh temp directory holding `perception_section`.
-std::string cellWith(const std::string& perception_section) {
+std::string cellWith(const std::string& sections) {
   const fs::path dir = fs::temp_directory_path() / ("depowder_options_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string path = (dir / "cell.yaml").string();
-  std::ofstream(path) << "box: {size: [0.4, 0.3, 0.2]}\n" << perception_section;
+  std::ofstream(path) << "box: {size: [0.4, 0.3, 0.2]}\n" << sections;
   return path;
 }
 
@@ -60,19 +60,28 @@ TEST(CameraOptions, DefaultCellStatesTheLibraryDefaults) {
   EXPECT_EQ(o->recv_buf_size, 4194304);
   EXPECT_TRUE(o->files.dir.empty());  // live by default
   EXPECT_EQ(o->cell.cameras.size(), 2u);
-  // The self-filter's end effector: the library's default, and the one the planner and the
-  // simulated arm use (robot.effector).
-  std::vector<EffectorSection> robot;
-  node::readEffector(o->cell.root.child("robot"), "effector", robot);
+  // The self-filter's end effector: the library's default (the authors' end effector, as the
+  // default cell's robot.effector).
   const std::vector<EffectorSection>& filter = o->perception.self_filter.effector;
-  ASSERT_EQ(filter.size(), robot.size());
   ASSERT_EQ(filter.size(), d.self_filter.effector.size());
   for (std::size_t k = 0; k < filter.size(); ++k) {
-    EXPECT_EQ(filter[k].radius, robot[k].radius);
-    EXPECT_EQ(filter[k].length, robot[k].length);
     EXPECT_EQ(filter[k].radius, d.self_filter.effector[k].radius);
     EXPECT_EQ(filter[k].length, d.self_filter.effector[k].length);
   }
+}
+
+// The self-filter takes the robot's end effector (robot.effector), so that a cell describes its
+// tool once; perception.self_filter.effector, if given, is used instead.
+TEST(CameraOptions, SelfFilterTakesTheRobotsEndEffector) {
+  const std::string robot = "robot: {effector: [{radius: 0.03, length: 0.1}]}\n";
+  auto o = parse({"--cell", cellWith(robot)});
+  ASSERT_TRUE(o);
+  ASSERT_EQ(o->perception.self_filter.effector.size(), 1u);
+  EXPECT_EQ(o->perception.self_filter.effector[0].radius, 0.03);
+  EXPECT_EQ(o->perception.self_filter.effector[0].length, 0.1);
+  o = parse({"--cell", cellWith(robot + "perception: {self_filter: {effector: []}}\n")});
+  ASSERT_TRUE(o);
+  EXPECT_TRUE(o->perception.self_filter.effector.empty());
 }
 
 TEST(CameraOptions, FilesSectionAndCommandLine) {

@@ -29,7 +29,7 @@ struct SelfFilterConfig {
   double radius = 0.0125;  ///< m, the nozzle body's radius (as planner.nozzle.radius)
   double length = 0.25;    ///< m of body above the tip (as planner.nozzle.length)
   /// The end effector's body at the top of the nozzle body, cylinders from there towards the
-  /// tip (as robot.effector; cut at the tip).
+  /// tip (cut at the tip); depowder-camera takes robot.effector's unless the section gives one.
   std::vector<EffectorSection> effector = vacuumEffector();
   /// m around the body: range noise, the robot state up to 4 ms from the frame (ROBOT_STATE at
   /// 125 Hz). Not more: where the part touches or falls against the nozzle its own points go too
