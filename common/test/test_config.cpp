@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -109,4 +110,23 @@ TEST(Config, CellModelIdFollowsTheSharedSections) {
   EXPECT_NE(id, idOf("a/other.stl", "[0, 0, 0.05]"));
   EXPECT_NE(id, idOf("missing.stl", "[0, 0, 0.05]"));
   std::filesystem::remove_all(dir);
+}
+
+// The tool for the processes that draw or filter it: the planner's nozzle, grown to the flange at
+// robot.tool_offset, and robot.effector; a bad key is named.
+TEST(Config, ToolFromThePlannerAndRobotSections) {
+  const ToolConfig tool = readTool(loadCell(std::string(DEPOWDER_SOURCE_DIR) + "/config/cell.yaml"));
+  EXPECT_DOUBLE_EQ(tool.nozzle_radius, 0.0125);
+  EXPECT_NEAR(tool.tube_length, 0.25, 1e-12);
+  ASSERT_EQ(tool.effector.size(), 2u);
+  EXPECT_DOUBLE_EQ(tool.effector[0].radius, 0.0445);
+  const std::string offset = "robot: {tool_offset: {xyz: [0, 0.1, 0.2], rpy_deg: [0, 0, 0]}}\n";
+  EXPECT_NEAR(readTool(loadCellFromString(offset)).tube_length, std::sqrt(0.05), 1e-12);  // the offset's length
+  EXPECT_NEAR(readTool(loadCellFromString(offset + "planner: {nozzle: {length: 0.3}}\n")).tube_length, 0.3, 1e-12);
+  try {
+    readTool(loadCellFromString("planner: {nozzle: {radius: -1}}\n", "tool.yaml"));
+    ADD_FAILURE() << "a negative nozzle radius was taken";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("planner.nozzle.radius"), std::string::npos) << e.what();
+  }
 }

@@ -118,8 +118,13 @@ std::string usage() {
 CameraNodeOptions readCameraOptions(node::CellConfig cell) {
   CameraNodeOptions o(std::move(cell));
   o.files.camera.name = "FILES";
-  // The self-filter's end effector is the robot's, unless perception.self_filter.effector differs.
-  node::readEffector(o.cell.root.child("robot"), "effector", o.perception.self_filter.effector);
+  // The self-filter's nozzle and end effector are the cell's tool, unless perception.self_filter
+  // gives its own.
+  const node::ToolConfig tool = node::readTool(o.cell);
+  SelfFilterConfig& sf = o.perception.self_filter;
+  sf.radius = tool.nozzle_radius;
+  sf.length = tool.tube_length;
+  sf.effector = tool.effector;
   readSection(o.cell.root.child("perception"), o);
   return o;
 }

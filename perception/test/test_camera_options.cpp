@@ -60,27 +60,37 @@ TEST(CameraOptions, DefaultCellStatesTheLibraryDefaults) {
   EXPECT_EQ(o->recv_buf_size, 4194304);
   EXPECT_TRUE(o->files.dir.empty());  // live by default
   EXPECT_EQ(o->cell.cameras.size(), 2u);
-  // The self-filter's end effector: the library's default (the authors' end effector, as the
-  // default cell's robot.effector).
-  const std::vector<EffectorSection>& filter = o->perception.self_filter.effector;
-  ASSERT_EQ(filter.size(), d.self_filter.effector.size());
-  for (std::size_t k = 0; k < filter.size(); ++k) {
-    EXPECT_EQ(filter[k].radius, d.self_filter.effector[k].radius);
-    EXPECT_EQ(filter[k].length, d.self_filter.effector[k].length);
+  // The self-filter: the library's defaults (the default cell's 25 cm tube and the authors' end
+  // effector, taken from its planner and robot sections).
+  const SelfFilterConfig& sf = o->perception.self_filter;
+  EXPECT_DOUBLE_EQ(sf.radius, d.self_filter.radius);
+  EXPECT_NEAR(sf.length, d.self_filter.length, 1e-12);
+  ASSERT_EQ(sf.effector.size(), d.self_filter.effector.size());
+  for (std::size_t k = 0; k < sf.effector.size(); ++k) {
+    EXPECT_EQ(sf.effector[k].radius, d.self_filter.effector[k].radius);
+    EXPECT_EQ(sf.effector[k].length, d.self_filter.effector[k].length);
   }
 }
 
-// The self-filter takes the robot's end effector (robot.effector), so that a cell describes its
-// tool once; perception.self_filter.effector, if given, is used instead.
-TEST(CameraOptions, SelfFilterTakesTheRobotsEndEffector) {
-  const std::string robot = "robot: {effector: [{radius: 0.03, length: 0.1}]}\n";
-  auto o = parse({"--cell", cellWith(robot)});
+// The self-filter takes the cell's tool (the planner's nozzle radius, the robot's tool offset and
+// end effector), so that a cell describes its tool once; perception.self_filter's own keys, if
+// given, are used instead.
+TEST(CameraOptions, SelfFilterTakesTheCellsTool) {
+  const std::string tool =
+      "robot: {tool_offset: {xyz: [0, 0, 0.3], rpy_deg: [0, 0, 0]}, effector: [{radius: 0.03, length: 0.1}]}\n"
+      "planner: {nozzle: {radius: 0.02}}\n";
+  auto o = parse({"--cell", cellWith(tool)});
   ASSERT_TRUE(o);
-  ASSERT_EQ(o->perception.self_filter.effector.size(), 1u);
-  EXPECT_EQ(o->perception.self_filter.effector[0].radius, 0.03);
-  EXPECT_EQ(o->perception.self_filter.effector[0].length, 0.1);
-  o = parse({"--cell", cellWith(robot + "perception: {self_filter: {effector: []}}\n")});
+  const SelfFilterConfig& sf = o->perception.self_filter;
+  EXPECT_DOUBLE_EQ(sf.radius, 0.02);
+  EXPECT_DOUBLE_EQ(sf.length, 0.3);
+  ASSERT_EQ(sf.effector.size(), 1u);
+  EXPECT_EQ(sf.effector[0].radius, 0.03);
+  EXPECT_EQ(sf.effector[0].length, 0.1);
+  o = parse({"--cell", cellWith(tool + "perception: {self_filter: {radius: 0.01, length: 0.2, effector: []}}\n")});
   ASSERT_TRUE(o);
+  EXPECT_DOUBLE_EQ(o->perception.self_filter.radius, 0.01);
+  EXPECT_DOUBLE_EQ(o->perception.self_filter.length, 0.2);
   EXPECT_TRUE(o->perception.self_filter.effector.empty());
 }
 

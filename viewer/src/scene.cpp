@@ -1,6 +1,5 @@
 #include "depowder/viewer/scene.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -48,21 +47,12 @@ Scene sceneFromCell(const node::CellConfig& cell) {
 }
 
 Mesh toolOfCell(const node::CellConfig& cell) {
-  const node::YamlReader robot = cell.root.child("robot");
-  const node::YamlReader nozzle = cell.root.child("planner").child("nozzle");
-  double radius = 0.0125, length = 0.13;  // planner::NozzleConfig's defaults
-  nozzle.read("radius", radius);
-  nozzle.read("length", length);
-  Pose T_flange_nozzle = Pose::Identity();
-  robot.readPose("tool_offset", T_flange_nozzle);
-  std::vector<EffectorSection> effector = vacuumEffector();
-  node::readEffector(robot, "effector", effector);
-  const double flange = T_flange_nozzle.translation().norm();  // the flange at z = -flange
+  const node::ToolConfig c = node::readTool(cell);
   constexpr int kSegments = 24;
-  Mesh tool = cylinderMesh(radius, std::max(length, flange), kSegments);
-  for (const EffectorSpan& s : effectorSpans(effector, flange)) {
+  Mesh tool = cylinderMesh(c.nozzle_radius, c.tube_length, kSegments);  // the flange at z = -tube_length
+  for (const EffectorSpan& s : effectorSpans(c.effector, c.tube_length)) {
     Pose T = Pose::Identity();
-    T.translation().z() = s.to - flange;
+    T.translation().z() = s.to - c.tube_length;
     append(tool, transformed(cylinderMesh(s.radius, s.to - s.from, kSegments), T));
   }
   return tool;

@@ -1,5 +1,6 @@
 #include "depowder/node/cell.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -106,6 +107,19 @@ void readEffector(const YamlReader& section, const std::string& key, std::vector
     item.finish();
     value.push_back(s);
   }
+}
+
+ToolConfig readTool(const CellConfig& cell) {
+  ToolConfig tool;
+  const YamlReader nozzle = cell.root.child("planner").child("nozzle");
+  nozzle.read("radius", tool.nozzle_radius, 0.0, 0.5);
+  nozzle.read("length", tool.tube_length, 0.0, 2.0);
+  const YamlReader robot = cell.root.child("robot");
+  Pose T_flange_nozzle = Pose::Identity();
+  robot.readPose("tool_offset", T_flange_nozzle);
+  tool.tube_length = std::max(tool.tube_length, T_flange_nozzle.translation().norm());
+  readEffector(robot, "effector", tool.effector);
+  return tool;
 }
 
 std::string defaultCellPath() {

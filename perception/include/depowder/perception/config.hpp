@@ -26,8 +26,8 @@ struct MergerConfig {
 /// planner placing the nozzle relative to the tracked pose, an estimate pulled towards it can
 /// run away with it. Its pose comes from ROBOT_STATE (the state nearest each time step).
 struct SelfFilterConfig {
-  double radius = 0.0125;  ///< m, the nozzle body's radius (as planner.nozzle.radius)
-  double length = 0.25;    ///< m of body above the tip (as planner.nozzle.length)
+  double radius = 0.0125;  ///< m, the nozzle body's radius (depowder-camera: planner.nozzle.radius)
+  double length = 0.25;    ///< m of body above the tip, to the flange (depowder-camera: robot.tool_offset's)
   /// The end effector's body at the top of the nozzle body, cylinders from there towards the
   /// tip (cut at the tip); depowder-camera takes robot.effector's unless the section gives one.
   std::vector<EffectorSection> effector = vacuumEffector();

@@ -125,9 +125,8 @@ class SceneModel {
 /// ConfigError a tool key that cannot be read.
 Scene sceneFromCell(const node::CellConfig& cell);
 
-/// The tool as the planner and the driver take it from the cell file: the nozzle tube
-/// (planner.nozzle radius, up to the flange at robot.tool_offset, or planner.nozzle.length if
-/// that is longer) and the end effector's cylinders below the flange (robot.effector).
+/// The tool as the planner and the driver take it from the cell file (node::readTool): the
+/// nozzle tube up to the flange and the end effector's cylinders below it.
 Mesh toolOfCell(const node::CellConfig& cell);
 
 /// Short names for the status text.

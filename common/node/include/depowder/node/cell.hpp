@@ -78,6 +78,18 @@ CellConfig loadCellFromString(const std::string& text, const std::string& file =
 /// (`cell_model`), so that on several hosts depowder-status can tell cell files that differ.
 double cellModelId(const CellConfig& cell);
 
+/// The tool as the cell file describes it for the planner and the driver, for the processes
+/// that only draw or filter it (the viewer, the camera proxy's self-filter).
+struct ToolConfig {
+  double nozzle_radius = 0.0125;  ///< m, the nozzle tube (planner.nozzle.radius)
+  double tube_length = 0.13;      ///< m from the tip up to the flange (planner.nozzle.length, grown to
+                                  ///< robot.tool_offset's length as the planner grows it)
+  std::vector<EffectorSection> effector = vacuumEffector();  ///< below the flange (robot.effector)
+};
+/// Reads planner.nozzle's radius and length, robot.tool_offset and robot.effector (each checked
+/// by its own process as well). Throws ConfigError naming a key it cannot read.
+ToolConfig readTool(const CellConfig& cell);
+
 /// An end effector's body, `key` in `section` (robot.effector, perception.self_filter.effector):
 /// a list of {radius, length} (m) from the flange towards the tip. Kept as is if absent.
 void readEffector(const YamlReader& section, const std::string& key, std::vector<EffectorSection>& value);
