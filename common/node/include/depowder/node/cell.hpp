@@ -79,7 +79,8 @@ CellConfig loadCellFromString(const std::string& text, const std::string& file =
 double cellModelId(const CellConfig& cell);
 
 /// The tool as the cell file describes it for the planner and the driver, for the processes
-/// that only draw or filter it (the viewer, the camera proxy's self-filter).
+/// that only draw or filter it (the viewer, the camera proxy's self-filter). The defaults are
+/// planner::NozzleConfig's and robot::ArmConfig's.
 struct ToolConfig {
   double nozzle_radius = 0.0125;  ///< m, the nozzle tube (planner.nozzle.radius)
   double tube_length = 0.13;      ///< m from the tip up to the flange (planner.nozzle.length, grown to
