@@ -95,6 +95,7 @@ CellConfig loadCellFromString(const std::string& text, const std::string& file) 
 }
 
 void readEffector(const YamlReader& section, const std::string& key, std::vector<EffectorSection>& value) {
+  // items() first: it marks the key as read, so a null `effector:` is not an unknown key.
   const std::vector<YamlReader> items = section.items(key);
   if (!section.has(key)) return;  // absent or null: the default
   value.clear();
