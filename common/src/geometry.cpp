@@ -96,15 +96,25 @@ bool onNozzleBody(const Point& p, double length, double radius, double along, do
 
 std::vector<EffectorSection> vacuumEffector() { return {{0.0445, 0.008}, {0.0286, 0.121}}; }
 
-std::vector<EffectorSpan> effectorSpans(const std::vector<EffectorSection>& sections, double reach) {
-  std::vector<EffectorSpan> spans;
+Pose EffectorBody::T_flange_end() const {
+  Pose T_body_end = Pose::Identity();
+  T_body_end.translation().z() = 0.5 * length;
+  return T_flange_body * T_body_end;
+}
+
+std::vector<EffectorBody> effectorBodies(const std::vector<EffectorSection>& sections, const Pose& T_flange_nozzle) {
+  const Eigen::Vector3d tip = T_flange_nozzle.translation();
+  const double reach = tip.norm();
+  std::vector<EffectorBody> bodies;
+  if (reach <= 0) return bodies;  // a tip on the flange leaves no room
+  const Eigen::Vector3d axis = tip / reach;
   double from = 0;
   for (const EffectorSection& s : sections) {
     const double to = std::min(from + s.length, reach);
-    if (s.radius > 0 && to > from) spans.push_back({from, to, s.radius});
+    if (s.radius > 0 && to > from) bodies.push_back({segmentFrame(from * axis, to * axis), s.radius, to - from});
     from += s.length;
   }
-  return spans;
+  return bodies;
 }
 
 }  // namespace depowder

@@ -49,17 +49,30 @@ TEST(Geometry, OnNozzleBodyGrowsTheBodyByEachMargin) {
   EXPECT_FALSE(onNozzleBody({0, 0, -0.1}, 0.25, 0.0125, 0.02, -0.0125));  // no radius left: nothing
 }
 
-// The end effector's sections one after another from the flange, cut at the tip; a section of no
-// radius leaves a gap, one beyond the tip is left out.
-TEST(Geometry, EffectorSpansFollowEachOtherAndStopAtTheTip) {
-  const std::vector<EffectorSpan> spans = effectorSpans({{0.04, 0.01}, {0, 0.02}, {0.03, 0.1}, {0.05, 0.1}}, 0.08);
-  ASSERT_EQ(spans.size(), 2u);
-  EXPECT_DOUBLE_EQ(spans[0].from, 0.0);
-  EXPECT_DOUBLE_EQ(spans[0].to, 0.01);
-  EXPECT_DOUBLE_EQ(spans[0].radius, 0.04);
-  EXPECT_DOUBLE_EQ(spans[1].from, 0.03);
-  EXPECT_DOUBLE_EQ(spans[1].to, 0.08);  // cut at the tip
-  EXPECT_DOUBLE_EQ(spans[1].radius, 0.03);
+// The end effector's sections one after another from the flange on the line to the tip, cut at
+// the tip, whichever way the tool offset points; a section of no radius leaves a gap, one beyond
+// the tip is left out.
+TEST(Geometry, EffectorBodiesFollowEachOtherToTheTipAndStopThere) {
+  const Eigen::Vector3d axis(0, 0.6, 0.8);  // a tool offset 0.08 m along it, tilted 37 deg from the flange's z
+  const Pose T_flange_nozzle = makePoseRpy(0.08 * axis, 0.3, -0.2, 1.0);  // the nozzle's turn plays no part
+  const std::vector<EffectorBody> bodies =
+      effectorBodies({{0.04, 0.01}, {0, 0.02}, {0.03, 0.1}, {0.05, 0.1}}, T_flange_nozzle);
+  ASSERT_EQ(bodies.size(), 2u);
+  const auto from = [](const EffectorBody& e) { return e.T_flange_end() * Eigen::Vector3d(0, 0, -e.length); };
+  EXPECT_LT(from(bodies[0]).norm(), 1e-12);
+  EXPECT_LT((bodies[0].T_flange_end().translation() - 0.01 * axis).norm(), 1e-12);
+  EXPECT_DOUBLE_EQ(bodies[0].radius, 0.04);
+  EXPECT_LT((from(bodies[1]) - 0.03 * axis).norm(), 1e-12);
+  EXPECT_LT((bodies[1].T_flange_end().translation() - T_flange_nozzle.translation()).norm(), 1e-12);  // cut
+  EXPECT_NEAR(bodies[1].length, 0.05, 1e-12);
+  EXPECT_DOUBLE_EQ(bodies[1].radius, 0.03);
+  for (const EffectorBody& e : bodies) {
+    EXPECT_TRUE(isValidPose(e.T_flange_body));
+    EXPECT_LT((e.T_flange_body.linear().col(2) - axis).norm(), 1e-12);  // z towards the tip
+    EXPECT_LT((e.T_flange_body.translation() - e.T_flange_end() * Eigen::Vector3d(0, 0, -0.5 * e.length)).norm(),
+              1e-12);  // centred
+  }
+  EXPECT_TRUE(effectorBodies(vacuumEffector(), Pose::Identity()).empty());  // a tip on the flange
   double length = 0;
   for (const EffectorSection& s : vacuumEffector()) length += s.length;
   EXPECT_NEAR(length, 0.129, 1e-12);  // the authors' end effector

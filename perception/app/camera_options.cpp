@@ -125,6 +125,7 @@ CameraNodeOptions readCameraOptions(node::CellConfig cell) {
   sf.radius = tool.nozzle_radius;
   sf.length = tool.tube_length;
   sf.effector = tool.effector;
+  sf.T_flange_nozzle = tool.T_flange_nozzle;
   readSection(o.cell.root.child("perception"), o);
   return o;
 }

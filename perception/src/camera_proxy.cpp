@@ -94,15 +94,19 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   const Pose* nozzle = sf.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
   // The nozzle frame: tip at the origin, body along -z (the spray direction is +z).
   const Pose T_nozzle_cell = nozzle ? nozzle->inverse(Eigen::Isometry) : Pose::Identity();
-  // The end effector's body sits at the top of the tube, from the flange at z = -length: each
-  // cylinder the same test from its lower end.
-  const std::vector<EffectorSpan> effector = effectorSpans(sf.effector, sf.length);
+  // The end effector's cylinders from the flange: each the same test from its end nearest the tip.
+  struct Body {
+    Pose T_end_nozzle;
+    double radius, length;
+  };
+  std::vector<Body> effector;
+  for (const EffectorBody& e : effectorBodies(sf.effector, sf.T_flange_nozzle))
+    effector.push_back({e.T_flange_end().inverse(Eigen::Isometry) * sf.T_flange_nozzle, e.radius, e.length});
   const auto on_nozzle = [&](const Point& p) {
     const Point q = T_nozzle_cell * p;
     return onNozzleBody(q, sf.length, sf.radius, sf.margin, sf.margin) ||
-           std::any_of(effector.begin(), effector.end(), [&](const EffectorSpan& e) {
-             return onNozzleBody(q + Eigen::Vector3d(0, 0, sf.length - e.to), e.to - e.from, e.radius, sf.margin,
-                                 sf.margin);
+           std::any_of(effector.begin(), effector.end(), [&](const Body& e) {
+             return onNozzleBody(e.T_end_nozzle * q, e.length, e.radius, sf.margin, sf.margin);
            });
   };
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.

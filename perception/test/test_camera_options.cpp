@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -70,6 +71,7 @@ TEST(CameraOptions, DefaultCellStatesTheLibraryDefaults) {
     EXPECT_EQ(sf.effector[k].radius, d.self_filter.effector[k].radius);
     EXPECT_EQ(sf.effector[k].length, d.self_filter.effector[k].length);
   }
+  EXPECT_TRUE(sf.T_flange_nozzle.isApprox(d.self_filter.T_flange_nozzle, 1e-12));
 }
 
 // The self-filter takes the cell's tool (the planner's nozzle radius, the robot's tool offset and
@@ -77,13 +79,14 @@ TEST(CameraOptions, DefaultCellStatesTheLibraryDefaults) {
 // given, are used instead.
 TEST(CameraOptions, SelfFilterTakesTheCellsTool) {
   const std::string tool =
-      "robot: {tool_offset: {xyz: [0, 0, 0.3], rpy_deg: [0, 0, 0]}, effector: [{radius: 0.03, length: 0.1}]}\n"
+      "robot: {tool_offset: {xyz: [0, 0.1, 0.3], rpy_deg: [20, 0, 0]}, effector: [{radius: 0.03, length: 0.1}]}\n"
       "planner: {nozzle: {radius: 0.02}}\n";
   auto o = parse({"--cell", cellWith(tool)});
   ASSERT_TRUE(o);
   const SelfFilterConfig& sf = o->perception.self_filter;
   EXPECT_DOUBLE_EQ(sf.radius, 0.02);
-  EXPECT_DOUBLE_EQ(sf.length, 0.3);
+  EXPECT_DOUBLE_EQ(sf.length, std::hypot(0.1, 0.3));  // up to the flange, as the planner grows it
+  EXPECT_TRUE(sf.T_flange_nozzle.isApprox(makePoseRpy({0, 0.1, 0.3}, 20 * M_PI / 180, 0, 0), 1e-12));
   ASSERT_EQ(sf.effector.size(), 1u);
   EXPECT_EQ(sf.effector[0].radius, 0.03);
   EXPECT_EQ(sf.effector[0].length, 0.1);

@@ -201,22 +201,30 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   EXPECT_EQ(stale.points.size(), all.points.size());
 }
 
-// The end effector's body at the top of the tube (robot.effector) is filtered too, each of its
-// cylinders where it is: with a hair-thin tube, a 1 cm plate on the flange and a 3 cm body below
-// it, the sphere's cap inside either goes, and the rest stays (beside the plate as well).
-TEST(CameraProxy, SelfFilterRemovesTheEndEffectorsBody) {
+// The end effector's body (robot.effector) is filtered too, each of its cylinders where the
+// planner places it: on the line from the flange to the tip (robot.tool_offset), which here is not
+// the nozzle's axis. With a hair-thin tube tilted 29 deg off that line, a 1 cm plate on the flange
+// and a 3 cm body below it, the sphere's cap inside either goes, and the rest stays (beside the
+// plate as well).
+TEST(CameraProxy, SelfFilterRemovesTheEndEffectorsBodyOnTheLineToTheFlange) {
   const auto rig = defaultRig(320, 240);
   const Scene s = scene();
+  // The flange 1 cm over the sphere's top, the tip 20 cm straight below it: the plate from the
+  // flange down to 11 cm, the body on to 5 cm. The nozzle sprays down, tilted about y.
+  const Point flange(0.02, 0.01, 0.14);
+  Pose T_cell_nozzle = Pose::Identity();
+  T_cell_nozzle.linear() =
+      (Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
+  T_cell_nozzle.translation() = flange - Point(0, 0, 0.2);
+  Pose T_cell_flange = Pose::Identity();
+  T_cell_flange.translation() = flange;
   PerceptionConfig cfg;
   cfg.self_filter.radius = 0.001;
   cfg.self_filter.length = 0.2;
   cfg.self_filter.effector = {{0.01, 0.03}, {0.03, 0.06}};
+  cfg.self_filter.T_flange_nozzle = T_cell_flange.inverse(Eigen::Isometry) * T_cell_nozzle;
   cfg.self_filter.margin = 0.005;
-  // Spraying down with the tip 19 cm under the sphere's top: the flange 1 cm over it, the plate
-  // from there down to 11 cm, the body on to 5 cm.
-  Pose T_cell_nozzle = Pose::Identity();
-  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  T_cell_nozzle.translation() = Point(0.02, 0.01, -0.06);
   CameraProxy proxy(cfg, kBox, {"LEFT", "RIGHT"});
   proxy.addNozzlePose(kT0, T_cell_nozzle);
   proxy.addDepth(render(s, rig[0], kT0), rig[0], kT0);
@@ -224,15 +232,14 @@ TEST(CameraProxy, SelfFilterRemovesTheEndEffectorsBody) {
   const auto out = proxy.poll(kT0);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_GT(out[0].on_nozzle, 100u);
-  const Pose T_nozzle_cell = T_cell_nozzle.inverse(Eigen::Isometry);
   const double leaf = cfg.voxel_leaf;
   int beside_plate = 0;
   for (const Point& p : out[0].points) {
-    const Point q = T_nozzle_cell * p;  // the plate: z from -0.2 to -0.17; the body: on to -0.11
+    const Point q = p - flange;  // the plate: z from 0 to -0.03; the body: on to -0.09
     const double r = q.head<2>().norm();
-    const bool plate = q.z() > -0.2 + leaf && q.z() < -0.17 - leaf;
+    const bool plate = q.z() < -leaf && q.z() > -0.03 + leaf;
     ASSERT_FALSE(plate && r < 0.015 - leaf) << p.transpose();
-    ASSERT_FALSE(q.z() > -0.17 + leaf && q.z() < -0.11 - leaf && r < 0.035 - leaf) << p.transpose();
+    ASSERT_FALSE(q.z() < -0.03 - leaf && q.z() > -0.09 + leaf && r < 0.035 - leaf) << p.transpose();
     beside_plate += plate && r > 0.015 + leaf;
   }
   EXPECT_GT(beside_plate, 10);  // within the body's radius but beside the plate: kept

@@ -65,7 +65,7 @@ CheckReport checkWaypoints(const std::vector<Waypoint>& waypoints, const std::ve
     std::shared_ptr<fcl::CollisionGeometryd> shape;
   };
   std::vector<Link> links;
-  for (const robot::EffectorBody& e : robot::effectorBodies(arm))
+  for (const EffectorBody& e : effectorBodies(arm.effector, arm.T_flange_nozzle))
     links.push_back({"effector", 6, e.T_flange_body, std::make_shared<fcl::Cylinderd>(e.radius, e.length)});
   for (const robot::LinkCapsule& c : robot::linkCapsules())
     links.push_back(

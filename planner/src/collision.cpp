@@ -147,7 +147,7 @@ CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> par
                             capsule(config.arm_margin + config.lost_margin)});
     }
     // The end effector's body on the flange; the nozzle cylinder below covers the tube to the tip.
-    for (const robot::EffectorBody& e : robot::effectorBodies(*w.arm)) {
+    for (const EffectorBody& e : effectorBodies(w.arm->effector, w.arm->T_flange_nozzle)) {
       auto cylinder = [&](double m) { return std::make_shared<fcl::Cylinderd>(e.radius + m, e.length + 2 * m); };
       w.capsules.push_back({6, "effector", e.T_flange_body, cylinder(config.arm_margin),
                             cylinder(config.arm_margin + config.tracking_margin),

@@ -202,13 +202,4 @@ std::vector<LinkCapsule> linkCapsules() {
   };
 }
 
-std::vector<EffectorBody> effectorBodies(const ArmConfig& arm) {
-  const Eigen::Vector3d tip = arm.T_flange_nozzle.translation();
-  const Eigen::Vector3d axis = tip.norm() > 1e-9 ? Eigen::Vector3d(tip.normalized()) : Eigen::Vector3d::UnitZ();
-  std::vector<EffectorBody> bodies;
-  for (const EffectorSpan& s : effectorSpans(arm.effector, tip.norm()))
-    bodies.push_back({segmentFrame(s.from * axis, s.to * axis), s.radius, s.to - s.from});
-  return bodies;
-}
-
 }  // namespace depowder::robot

@@ -39,12 +39,9 @@ EmulatedArm::EmulatedArm(const BcapEmulator& emulator, robot::ArmConfig arm)
     links_.push_back(c.link);
     meshes_.push_back(capsuleMesh(c.p0, c.p1, c.radius));
   }
-  for (const robot::EffectorBody& e : robot::effectorBodies(arm_)) {
-    // A cylinder from z = -length to 0, centred on the body's pose.
-    Pose T_body_cylinder = Pose::Identity();
-    T_body_cylinder.translation().z() = 0.5 * e.length;
+  for (const EffectorBody& e : effectorBodies(arm_.effector, arm_.T_flange_nozzle)) {
     links_.push_back(6);
-    meshes_.push_back(transformed(cylinderMesh(e.radius, e.length, 16), e.T_flange_body * T_body_cylinder));
+    meshes_.push_back(transformed(cylinderMesh(e.radius, e.length, 16), e.T_flange_end()));
   }
 }
 

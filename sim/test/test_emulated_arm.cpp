@@ -11,7 +11,7 @@ using namespace depowder;
 TEST(EmulatedArm, EffectorCylindersAreClosedOutwardAndOnTheToolAxis) {
   robot::ArmConfig arm;
   arm.T_flange_nozzle.translation() = Eigen::Vector3d(0, 0, 0.25);
-  const std::vector<robot::EffectorBody> bodies = robot::effectorBodies(arm);
+  const std::vector<EffectorBody> bodies = effectorBodies(arm.effector, arm.T_flange_nozzle);
   ASSERT_EQ(bodies.size(), 2u);      // the plate on the flange, then the body
   const sim::BcapEmulator emulator;  // not started: only the arm's meshes are wanted
   const sim::EmulatedArm emulated(emulator, arm);
@@ -19,7 +19,7 @@ TEST(EmulatedArm, EffectorCylindersAreClosedOutwardAndOnTheToolAxis) {
   const int segments = 16;
   double from = 0;
   for (std::size_t k = 0; k < bodies.size(); ++k) {
-    const robot::EffectorBody& body = bodies[k];
+    const EffectorBody& body = bodies[k];
     const Mesh& m = emulated.linkMeshes()[robot::linkCapsules().size() + k];
     EXPECT_EQ(closednessProblem(m, true), "");
     // Outward: the volume of the inscribed prism, positive.

@@ -49,12 +49,10 @@ Scene sceneFromCell(const node::CellConfig& cell) {
 Mesh toolOfCell(const node::CellConfig& cell) {
   const node::ToolConfig c = node::readTool(cell);
   constexpr int kSegments = 24;
-  Mesh tool = cylinderMesh(c.nozzle_radius, c.tube_length, kSegments);  // the flange at z = -tube_length
-  for (const EffectorSpan& s : effectorSpans(c.effector, c.tube_length)) {
-    Pose T = Pose::Identity();
-    T.translation().z() = s.to - c.tube_length;
-    append(tool, transformed(cylinderMesh(s.radius, s.to - s.from, kSegments), T));
-  }
+  Mesh tool = cylinderMesh(c.nozzle_radius, c.tube_length, kSegments);  // the tube, up from the tip
+  const Pose T_nozzle_flange = c.T_flange_nozzle.inverse(Eigen::Isometry);
+  for (const EffectorBody& e : effectorBodies(c.effector, c.T_flange_nozzle))
+    append(tool, transformed(cylinderMesh(e.radius, e.length, kSegments), T_nozzle_flange * e.T_flange_end()));
   return tool;
 }
 

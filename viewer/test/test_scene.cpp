@@ -177,9 +177,11 @@ TEST(SceneModel, SceneFromCellLoadsMeshesAndBox) {
   ASSERT_TRUE(s.parts[0].mesh);
   EXPECT_NEAR(s.parts[0].mesh->vertices[1].x(), 0.1, 1e-6);
   EXPECT_FALSE(s.parts[0].has_estimate);  // nothing drawn red before the tracker speaks
-  ASSERT_TRUE(s.tool_mesh);  // no robot or planner section: the planner's 13 cm tube, the authors' end effector
+  // No robot or planner section: the planner's 13 cm tube, and no end effector (the tool offset
+  // puts the flange at the tip, as the planner and the driver take it).
+  ASSERT_TRUE(s.tool_mesh);
   EXPECT_NEAR(bounds(*s.tool_mesh).min().z(), -0.13, 1e-9);
-  EXPECT_NEAR(bounds(*s.tool_mesh).max().x(), 0.0445, 1e-9);
+  EXPECT_NEAR(bounds(*s.tool_mesh).max().x(), 0.0125, 1e-9);
 
   std::ofstream(dir / "bad.yaml") << "parts:\n  - name: x\n    mesh: missing.stl\n";
   EXPECT_THROW(sceneFromCell(node::loadCell((dir / "bad.yaml").string())), MeshError);
@@ -198,6 +200,31 @@ TEST(SceneModel, ToolOfCellIsTheTubeAndTheEndEffector) {
   auto prism = [](double r, double l) { return 0.5 * 24 * r * r * std::sin(2 * M_PI / 24) * l; };
   EXPECT_NEAR(volume(tool), prism(0.0125, 0.25) + prism(0.0445, 0.008) + prism(0.0286, 0.121), 1e-9);
   EXPECT_EQ(closednessProblem(tool), "");
+}
+
+// A tool offset that tilts the nozzle 60 deg against the flange (33 deg off the line from the
+// flange to the tip): the tube stays on the nozzle's axis, and the end effector is drawn where
+// the planner places it, on that line (effectorBodies).
+TEST(SceneModel, ToolOfCellPlacesTheEndEffectorOnTheLineToTheFlange) {
+  const Mesh tool = toolOfCell(node::loadCellFromString(
+      "robot: {tool_offset: {xyz: [0.1, 0, 0.2], rpy_deg: [0, 60, 0]}, effector: [{radius: 0.03, length: 0.05}]}\n"
+      "planner: {nozzle: {radius: 0.01, length: 0.1}}\n"));
+  const Pose T_flange_nozzle = makePoseRpy({0.1, 0, 0.2}, 0, 60 * M_PI / 180, 0);
+  const Point flange = T_flange_nozzle.inverse(Eigen::Isometry).translation();  // in the nozzle frame
+  const Point axis = -flange.normalized();                                      // towards the tip
+  const double tube = std::hypot(0.1, 0.2);                                     // grown to the flange
+  auto prism = [](double r, double l) { return 0.5 * 24 * r * r * std::sin(2 * M_PI / 24) * l; };
+  EXPECT_NEAR(volume(tool), prism(0.01, tube) + prism(0.03, 0.05), 1e-9);
+  int rim = 0, centre = 0;
+  for (const Point& v : tool.vertices) {
+    if (v.head<2>().norm() < 0.01 + 1e-9 && v.z() > -tube - 1e-9 && v.z() < 1e-9) continue;  // the tube's
+    const double along = (v - flange).dot(axis), off = (v - flange - along * axis).norm();
+    EXPECT_TRUE(std::abs(along) < 1e-9 || std::abs(along - 0.05) < 1e-9) << v.transpose();  // on its end discs
+    rim += std::abs(off - 0.03) < 1e-9;
+    centre += off < 1e-9;
+  }
+  EXPECT_EQ(rim, 2 * 24);
+  EXPECT_EQ(centre, 2);
 }
 
 // Through a real (in-process) LCM bus: the newest message of each kind wins, so frames

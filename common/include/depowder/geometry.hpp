@@ -71,12 +71,18 @@ struct EffectorSection {
 /// the flange 44.5 mm in radius and 8 mm thick, then a body 28.6 mm in radius.
 std::vector<EffectorSection> vacuumEffector();
 
-/// A section placed on the tool axis: from `from` to `to` m from the flange.
-struct EffectorSpan {
-  double from = 0, to = 0, radius = 0;
+/// One section of the end effector placed in the flange frame: a cylinder on the line from the
+/// flange to the nozzle tip (robot.tool_offset's translation).
+struct EffectorBody {
+  Pose T_flange_body = Pose::Identity();  ///< centred (as FCL's cylinders); z along the line, towards the tip
+  double radius = 0, length = 0;          ///< m
+  /// The frame of its end nearest the tip, where the section runs from z = -length to 0 (as the
+  /// nozzle's body does in onNozzleBody and cylinderMesh).
+  Pose T_flange_end() const;
 };
-/// The sections placed one after another from the flange and cut at `reach` m (the nozzle tip);
-/// those left with no length or radius are left out.
-std::vector<EffectorSpan> effectorSpans(const std::vector<EffectorSection>& sections, double reach);
+/// The sections placed one after another from the flange along the line to the nozzle tip at
+/// T_flange_nozzle and cut at the tip; those left with no length or radius are left out. The planner, the simulated
+/// arm, the camera proxy's self-filter and the viewer all place the end effector with it.
+std::vector<EffectorBody> effectorBodies(const std::vector<EffectorSection>& sections, const Pose& T_flange_nozzle);
 
 }  // namespace depowder

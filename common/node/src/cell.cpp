@@ -116,9 +116,8 @@ ToolConfig readTool(const CellConfig& cell) {
   nozzle.read("radius", tool.nozzle_radius, 0.0, 0.5);
   nozzle.read("length", tool.tube_length, 0.0, 2.0);
   const YamlReader robot = cell.root.child("robot");
-  Pose T_flange_nozzle = Pose::Identity();
-  robot.readPose("tool_offset", T_flange_nozzle);
-  tool.tube_length = std::max(tool.tube_length, T_flange_nozzle.translation().norm());
+  robot.readPose("tool_offset", tool.T_flange_nozzle);
+  tool.tube_length = std::max(tool.tube_length, tool.T_flange_nozzle.translation().norm());
   readEffector(robot, "effector", tool.effector);
   return tool;
 }

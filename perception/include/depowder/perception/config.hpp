@@ -28,9 +28,12 @@ struct MergerConfig {
 struct SelfFilterConfig {
   double radius = 0.0125;  ///< m, the nozzle body's radius (depowder-camera: planner.nozzle.radius)
   double length = 0.25;    ///< m of body above the tip, to the flange (depowder-camera: robot.tool_offset's)
-  /// The end effector's body at the top of the nozzle body, cylinders from there towards the
-  /// tip (cut at the tip); depowder-camera takes robot.effector's unless the section gives one.
+  /// The end effector's body: cylinders from the flange towards the tip, placed as the planner
+  /// places them (effectorBodies); depowder-camera takes robot.effector's unless the section
+  /// gives one.
   std::vector<EffectorSection> effector = vacuumEffector();
+  /// Where the flange is: the nozzle tip in the flange frame (depowder-camera: robot.tool_offset).
+  Pose T_flange_nozzle = Pose(Eigen::Translation3d(0, 0, 0.25));
   /// m around the body: range noise, the robot state up to 4 ms from the frame (ROBOT_STATE at
   /// 125 Hz). Not more: where the part touches or falls against the nozzle its own points go too
   /// (1 cm cost the toppling pipe its track); < 0: off.

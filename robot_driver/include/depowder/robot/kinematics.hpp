@@ -24,8 +24,8 @@ struct ArmConfig {
   Joints qdd_max{8, 8, 8, 12, 12, 20};                      ///< rad/s^2
   Joints q_home{0, 0.3, 1.6, 0, 1.2, 0};                    ///< rad, a safe pose above the box
   Joints ik_weights{1, 1, 1, 0.5, 0.5, 0.3};  ///< weights of the joint distance that picks the IK solution
-  /// The end effector's body: cylinders on the tool axis from the flange (the authors' vacuum end
-  /// effector), ending at the nozzle tip at the most (effectorBodies). The nozzle tube (the
+  /// The end effector's body: cylinders from the flange towards the nozzle tip (the authors' vacuum
+  /// end effector), placed by effectorBodies(effector, T_flange_nozzle). The nozzle tube (the
   /// planner's nozzle cylinder) runs on to the tip.
   std::vector<EffectorSection> effector = vacuumEffector();
 };
@@ -80,13 +80,5 @@ struct LinkCapsule {
 /// Simple collision geometry of the arm: capsules in the link frames, fitted to enclose the
 /// public URDF meshes. World pose of capsule c: T_cell_base * linkPoses(q)[c.link].
 std::vector<LinkCapsule> linkCapsules();
-
-/// One cylinder of the end effector's body on the flange (ArmConfig::effector, cut at the
-/// nozzle tip).
-struct EffectorBody {
-  Pose T_flange_body = Pose::Identity();  ///< centred; its z axis along the tool axis, towards the tip
-  double radius = 0, length = 0;          ///< m
-};
-std::vector<EffectorBody> effectorBodies(const ArmConfig& arm);
 
 }  // namespace depowder::robot

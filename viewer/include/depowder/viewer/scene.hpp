@@ -126,7 +126,8 @@ class SceneModel {
 Scene sceneFromCell(const node::CellConfig& cell);
 
 /// The tool as the planner and the driver take it from the cell file (node::readTool): the
-/// nozzle tube up to the flange and the end effector's cylinders below it.
+/// nozzle tube up its axis from the tip, and the end effector's cylinders from the flange
+/// towards the tip, in the nozzle's frame.
 Mesh toolOfCell(const node::CellConfig& cell);
 
 /// Short names for the status text.

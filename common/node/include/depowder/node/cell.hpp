@@ -82,10 +82,12 @@ double cellModelId(const CellConfig& cell);
 /// that only draw or filter it (the viewer, the camera proxy's self-filter). The defaults are
 /// planner::NozzleConfig's and robot::ArmConfig's.
 struct ToolConfig {
-  double nozzle_radius = 0.0125;  ///< m, the nozzle tube (planner.nozzle.radius)
-  double tube_length = 0.13;      ///< m from the tip up to the flange (planner.nozzle.length, grown to
-                                  ///< robot.tool_offset's length as the planner grows it)
-  std::vector<EffectorSection> effector = vacuumEffector();  ///< below the flange (robot.effector)
+  double nozzle_radius = 0.0125;            ///< m, the nozzle tube (planner.nozzle.radius)
+  double tube_length = 0.13;                ///< m from the tip up its axis (planner.nozzle.length, grown to
+                                            ///< robot.tool_offset's length as the planner grows it)
+  Pose T_flange_nozzle = Pose::Identity();  ///< robot.tool_offset
+  std::vector<EffectorSection> effector = vacuumEffector();  ///< from the flange (robot.effector), placed
+                                                             ///< by effectorBodies(effector, T_flange_nozzle)
 };
 /// Reads planner.nozzle's radius and length, robot.tool_offset and robot.effector (each checked
 /// by its own process as well). Throws ConfigError naming a key it cannot read.
