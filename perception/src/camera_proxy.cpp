@@ -3,12 +3,61 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 namespace depowder::perception {
 
 std::int64_t ProxyCounters::dropped() const {
   return std::accumulate(by_status.begin() + 1, by_status.end(), std::int64_t{0});
 }
+
+namespace {
+
+/// The tool at the nozzle's pose, as the self-filter removes it: the tube up from the tip and the
+/// end effector's cylinders from the flange (effectorBodies), each grown by the margin.
+class ToolVolume {
+ public:
+  ToolVolume(const SelfFilterConfig& sf, const Pose& T_cell_nozzle)
+      : sf_(sf), T_nozzle_cell_(T_cell_nozzle.inverse(Eigen::Isometry)), in_nozzle_(grown(sf.radius, sf.length)) {
+    for (const EffectorBody& e : effectorBodies(sf.effector, sf.T_flange_nozzle)) {
+      const Pose T_nozzle_end = sf.T_flange_nozzle.inverse(Eigen::Isometry) * e.T_flange_end();
+      effector_.push_back({T_nozzle_end.inverse(Eigen::Isometry), e.radius, e.length});
+      in_nozzle_.extend(bounds(grown(e.radius, e.length), T_nozzle_end));
+    }
+    in_cell_ = bounds(in_nozzle_, T_cell_nozzle);
+  }
+
+  bool contains(const Point& p_cell) const {
+    // Most points are nowhere near the tool: outside the boxes that hold it all (in the cell
+    // frame, then in the nozzle frame) they need no test of its parts.
+    if (!in_cell_.contains(p_cell)) return false;
+    const Point q = T_nozzle_cell_ * p_cell;
+    if (!in_nozzle_.contains(q)) return false;
+    return onNozzleBody(q, sf_.length, sf_.radius, sf_.margin, sf_.margin) ||
+           std::any_of(effector_.begin(), effector_.end(), [&](const Body& e) {
+             return onNozzleBody(e.T_end_nozzle * q, e.length, e.radius, sf_.margin, sf_.margin);
+           });
+  }
+
+ private:
+  /// A cylinder from its end at the origin, grown: its bounds in that end's frame.
+  Eigen::AlignedBox3d grown(double radius, double length) const {
+    const double r = radius + sf_.margin;
+    return {Eigen::Vector3d(-r, -r, -length - sf_.margin), Eigen::Vector3d(r, r, sf_.margin)};
+  }
+
+  /// An end effector cylinder, tested from its end nearest the tip (as the tube from the tip).
+  struct Body {
+    Pose T_end_nozzle;
+    double radius, length;
+  };
+  const SelfFilterConfig& sf_;
+  Pose T_nozzle_cell_;  ///< nozzle frame: tip at the origin, body along -z (the spray direction is +z)
+  Eigen::AlignedBox3d in_nozzle_, in_cell_;
+  std::vector<Body> effector_;
+};
+
+}  // namespace
 
 CameraProxy::CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& box_size,
                          std::vector<std::string> known_cameras)
@@ -90,33 +139,19 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   CellCloud out;
   out.utime = merged.utime;
   out.missing = std::move(merged.missing);
-  const SelfFilterConfig& sf = config_.self_filter;
-  const Pose* nozzle = sf.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
-  // The nozzle frame: tip at the origin, body along -z (the spray direction is +z).
-  const Pose T_nozzle_cell = nozzle ? nozzle->inverse(Eigen::Isometry) : Pose::Identity();
-  // The end effector's cylinders from the flange: each the same test from its end nearest the tip.
-  struct Body {
-    Pose T_end_nozzle;
-    double radius, length;
-  };
-  std::vector<Body> effector;
-  for (const EffectorBody& e : effectorBodies(sf.effector, sf.T_flange_nozzle))
-    effector.push_back({e.T_flange_end().inverse(Eigen::Isometry) * sf.T_flange_nozzle, e.radius, e.length});
-  const auto on_nozzle = [&](const Point& p) {
-    const Point q = T_nozzle_cell * p;
-    return onNozzleBody(q, sf.length, sf.radius, sf.margin, sf.margin) ||
-           std::any_of(effector.begin(), effector.end(), [&](const Body& e) {
-             return onNozzleBody(e.T_end_nozzle * q, e.length, e.radius, sf.margin, sf.margin);
-           });
-  };
+  const Pose* nozzle = config_.self_filter.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
+  const std::optional<ToolVolume> tool =
+      nozzle ? std::optional(ToolVolume(config_.self_filter, *nozzle)) : std::nullopt;
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
   for (CameraFrame& f : merged.sources) {
     out.sources.push_back(f.camera);
     out.source_utimes.push_back(f.utime);
     out.points_in += f.points.size();
-    if (nozzle) {
+    if (tool) {
       const std::size_t before = f.points.size();
-      f.points.erase(std::remove_if(f.points.begin(), f.points.end(), on_nozzle), f.points.end());
+      f.points.erase(
+          std::remove_if(f.points.begin(), f.points.end(), [&](const Point& p) { return tool->contains(p); }),
+          f.points.end());
       out.on_nozzle += before - f.points.size();
     }
     grid_.add(f.points);
