@@ -140,8 +140,8 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   out.utime = merged.utime;
   out.missing = std::move(merged.missing);
   const Pose* nozzle = config_.self_filter.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
-  const std::optional<ToolVolume> tool =
-      nozzle ? std::optional(ToolVolume(config_.self_filter, *nozzle)) : std::nullopt;
+  std::optional<ToolVolume> tool;
+  if (nozzle) tool.emplace(config_.self_filter, *nozzle);
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
   for (CameraFrame& f : merged.sources) {
     out.sources.push_back(f.camera);

@@ -27,7 +27,8 @@ struct MergerConfig {
 /// run away with it. Its pose comes from ROBOT_STATE (the state nearest each time step).
 struct SelfFilterConfig {
   double radius = 0.0125;  ///< m, the nozzle body's radius (depowder-camera: planner.nozzle.radius)
-  double length = 0.25;    ///< m of body above the tip, to the flange (depowder-camera: robot.tool_offset's)
+  double length = 0.25;    ///< m of body up its axis from the tip (depowder-camera: the planner's, up to
+                           ///< the flange at robot.tool_offset)
   /// The end effector's body: cylinders from the flange towards the tip, placed as the planner
   /// places them (effectorBodies); depowder-camera takes robot.effector's unless the section
   /// gives one.
