@@ -92,6 +92,9 @@ void CameraProxy::reject(const FrameError& error) {
 FrameError CameraProxy::accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime,
                                std::int64_t arrival) {
   FrameError result = cloud.error;
+  if (result.ok() && !(utime >= 0 && utime <= kMaxUtime))
+    result = {FrameStatus::kBadHeader,
+              "camera '" + camera + "': utime " + std::to_string(utime) + " us is outside 0 to 2^53 us"};
   if (result.ok()) result = merger_.add(CameraFrame{camera, utime, std::move(cloud.points)}, arrival);
   reject(result);
   return result;
@@ -104,6 +107,7 @@ std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {
 }
 
 void CameraProxy::addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle) {
+  if (!(utime >= 0 && utime <= kMaxUtime)) return;
   if (!nozzle_poses_.empty() && utime <= nozzle_poses_.back().first) return;
   nozzle_poses_.emplace_back(utime, T_cell_nozzle);
   while (nozzle_poses_.front().first < utime - 1000000) nozzle_poses_.pop_front();

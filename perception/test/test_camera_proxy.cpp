@@ -120,6 +120,34 @@ TEST(CameraProxy, CorruptFramesAreCountedAndTheStreamGoesOn) {
   EXPECT_EQ(c.last_error.status, FrameStatus::kNoValidReturns);
 }
 
+// A frame stamped before 0 or past 2^53 us (a garbage message that decodes) is refused, saying
+// its utime, and does not reach the merger; a nozzle pose stamped so is ignored, and does not
+// keep the next poses out (one from the far future would, being newer than any). The next
+// frames go on as before.
+TEST(CameraProxy, FramesAndPosesStampedOutsideTheUtimesTakenAreRefused) {
+  const auto rig = defaultRig(160, 120);
+  const Scene s = scene();
+  PerceptionConfig cfg;
+  cfg.self_filter.margin = 0.005;
+  CameraProxy proxy(cfg, kBox, {"LEFT"});
+  Pose T_cell_nozzle = Pose::Identity();  // the tip 1 cm into the sphere's top, spraying down
+  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T_cell_nozzle.translation() = Point(0.02, 0.01, 0.12);
+  for (const std::int64_t utime : {std::int64_t{-1}, CameraProxy::kMaxUtime + 1, INT64_MIN, INT64_MAX}) {
+    const FrameError e = proxy.addDepth(render(s, rig[0], utime), rig[0], kT0);
+    EXPECT_EQ(e.status, FrameStatus::kBadHeader);
+    EXPECT_NE(e.message.find("utime " + std::to_string(utime)), std::string::npos) << e.message;
+    proxy.addNozzlePose(utime, T_cell_nozzle);
+  }
+  EXPECT_TRUE(proxy.poll(kT0 + 100'000).empty());
+  proxy.addNozzlePose(kT0, T_cell_nozzle);
+  EXPECT_TRUE(proxy.addDepth(render(s, rig[0], kT0), rig[0], kT0).ok());
+  const auto out = proxy.poll(kT0 + 100'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_GT(out[0].on_nozzle, 0u);  // the pose at kT0 was taken
+  EXPECT_EQ(proxy.counters().by_status[static_cast<int>(FrameStatus::kBadHeader)], 4);
+}
+
 // Flying pixels at depth edges (the sphere's silhouette against the powder) make isolated
 // voxels; isolated-voxel removal takes most of them and almost none of the surface.
 TEST(CameraProxy, IsolatedVoxelRemovalTakesFlyingPixels) {

@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +18,18 @@ bool decoded(T& msg, const std::uint8_t* data, std::size_t size) {
   const int n = msg.decode(data, 0, static_cast<int>(size));
   if (n > static_cast<int>(size)) std::abort();
   return n >= 0;
+}
+
+/// Calls f(kind, message, length) for each record of the input: [kind byte][length, 2 bytes
+/// little-endian][message], the kind taken modulo `kinds`; a record cut short takes what is left.
+template <class F>
+void forEachRecord(const std::uint8_t* data, std::size_t size, int kinds, F&& f) {
+  while (size >= 3) {
+    const int kind = data[0] % kinds;
+    const std::size_t n = std::min<std::size_t>(size - 3, data[1] | data[2] << 8);
+    f(kind, data + 3, n);
+    data += 3 + n, size -= 3 + n;
+  }
 }
 
 /// The bytes as a file of the temp directory named by `extension` (what picks the reader),

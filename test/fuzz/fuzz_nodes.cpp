@@ -33,15 +33,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   progress::ProgressNode progress(c.cell, c.progress);
   planner::PlannerNode planner(c.cell, c.planner);
   std::int64_t now_us = 1'000'000;
-  while (size >= 3) {
-    const std::uint8_t kind = data[0] % 5;
-    const std::size_t n = std::min<std::size_t>(size - 3, data[1] | data[2] << 8);
-    const std::uint8_t* msg = data + 3;
-    data += 3 + n, size -= 3 + n;
+  fuzz::forEachRecord(data, size, 5, [&](int kind, const std::uint8_t* msg, std::size_t n) {
     now_us += 33'000;
     if (kind == 0) {
       point_cloud_t m;
-      if (!decoded(m, msg, n)) continue;
+      if (!decoded(m, msg, n)) return;
       for (const part_pose_t& pose : tracker.onPoints(m)) {
         progress.onPose(pose);
         planner.onPose(pose);
@@ -62,6 +58,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     for (const progress_t& p : progress.poll(now_us)) planner.onProgress(p);
     planner.step();
-  }
+  });
   return 0;
 }

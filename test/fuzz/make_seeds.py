@@ -72,6 +72,17 @@ def record(kind, msg):
 pp.template_updated, pp.template_size, pp.template_xyz = False, 0, []
 write("nodes", "robot_pose_progress_points", record(3, rs) + record(1, pp) + record(2, pr) + record(0, c) + record(0, c))
 
+# fuzz_camera: the same records, kind 0 a depth frame, 1 a robot state: the nozzle over the
+# frame's points, then LEFT and RIGHT of one time step, twice.
+rs.T_cell_nozzle = pose((0.08, 0.08, 0.15), (0, 1, 0, 0))  # spraying down, its tube through a point
+r = depth_image_t.decode(d.encode())
+r.camera = "RIGHT"
+camera = record(1, rs)
+for t in (1000, 34000):
+    d.utime = r.utime = rs.utime = t
+    camera += record(1, rs) + record(0, d) + record(0, r)
+write("camera", "state_left_right", camera)
+
 
 # fuzz_plan: records [cycles, 2 bytes LE][length, 2 bytes LE][nozzle_plan_t]; length 0 stops.
 def plan(plan_id, points, speed, tool):
