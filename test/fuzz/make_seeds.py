@@ -72,9 +72,10 @@ def record(kind, msg):
 pp.template_updated, pp.template_size, pp.template_xyz = False, 0, []
 write("nodes", "robot_pose_progress_points", record(3, rs) + record(1, pp) + record(2, pr) + record(0, c) + record(0, c))
 
-# fuzz_camera: the same records, kind 0 a depth frame, 1 a robot state: the nozzle over the
-# frame's points, then LEFT and RIGHT of one time step, twice.
-rs.T_cell_nozzle = pose((0.08, 0.08, 0.15), (0, 1, 0, 0))  # spraying down, its tube through a point
+# fuzz_camera: the same records, kind 0 a depth frame, 1 a robot state: a robot state, then a
+# time step of LEFT and RIGHT with its own, twice; the nozzle's tube runs through one of the
+# frame's points, so the self-filter takes it.
+rs.T_cell_nozzle = pose((0.08, 0.08, 0.15), (0, 1, 0, 0))  # spraying down
 r = depth_image_t.decode(d.encode())
 r.camera = "RIGHT"
 camera = record(1, rs)
