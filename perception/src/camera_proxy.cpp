@@ -13,14 +13,18 @@ std::int64_t ProxyCounters::dropped() const {
 
 namespace {
 
+/// Whether the proxy takes a frame or a nozzle pose stamped `utime` (CameraProxy::kMaxUtime).
+bool utimeTaken(std::int64_t utime) { return utime >= 0 && utime <= CameraProxy::kMaxUtime; }
+
 /// The tool at the nozzle's pose, as the self-filter removes it: the tube up from the tip and the
 /// end effector's cylinders from the flange (effectorBodies), each grown by the margin.
 class ToolVolume {
  public:
   ToolVolume(const SelfFilterConfig& sf, const Pose& T_cell_nozzle)
       : sf_(sf), T_nozzle_cell_(T_cell_nozzle.inverse(Eigen::Isometry)), in_nozzle_(grown(sf.radius, sf.length)) {
+    const Pose T_nozzle_flange = sf.T_flange_nozzle.inverse(Eigen::Isometry);
     for (const EffectorBody& e : effectorBodies(sf.effector, sf.T_flange_nozzle)) {
-      const Pose T_nozzle_end = sf.T_flange_nozzle.inverse(Eigen::Isometry) * e.T_flange_end();
+      const Pose T_nozzle_end = T_nozzle_flange * e.T_flange_end();
       effector_.push_back({T_nozzle_end.inverse(Eigen::Isometry), e.radius, e.length});
       in_nozzle_.extend(bounds(grown(e.radius, e.length), T_nozzle_end));
     }
@@ -92,7 +96,7 @@ void CameraProxy::reject(const FrameError& error) {
 FrameError CameraProxy::accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime,
                                std::int64_t arrival) {
   FrameError result = cloud.error;
-  if (result.ok() && !(utime >= 0 && utime <= kMaxUtime))
+  if (result.ok() && !utimeTaken(utime))
     result = {FrameStatus::kBadHeader,
               "camera '" + camera + "': utime " + std::to_string(utime) + " us is outside 0 to 2^53 us"};
   if (result.ok()) result = merger_.add(CameraFrame{camera, utime, std::move(cloud.points)}, arrival);
@@ -107,7 +111,7 @@ std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {
 }
 
 void CameraProxy::addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle) {
-  if (!(utime >= 0 && utime <= kMaxUtime)) return;
+  if (!utimeTaken(utime)) return;
   if (!nozzle_poses_.empty() && utime <= nozzle_poses_.back().first) return;
   nozzle_poses_.emplace_back(utime, T_cell_nozzle);
   while (nozzle_poses_.front().first < utime - 1000000) nozzle_poses_.pop_front();

@@ -19,6 +19,15 @@ const Eigen::Vector3d kBox(0.4, 0.3, 0.2);
 
 Scene scene() { return boxScene(kBox, 0.08, {Sphere{{0.02, 0.01, 0.09}, 0.04}}); }
 
+/// The nozzle spraying down with its tip 1 cm into the sphere's top: the self-filter takes the
+/// sphere's cap round it.
+Pose nozzleInTheSphere() {
+  Pose T_cell_nozzle = Pose::Identity();
+  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T_cell_nozzle.translation() = Point(0.02, 0.01, 0.12);
+  return T_cell_nozzle;
+}
+
 }  // namespace
 
 TEST(CameraProxy, TwoCamerasMergeIntoOneCroppedDownsampledCloud) {
@@ -130,9 +139,7 @@ TEST(CameraProxy, FramesAndPosesStampedOutsideTheUtimesTakenAreRefused) {
   PerceptionConfig cfg;
   cfg.self_filter.margin = 0.005;
   CameraProxy proxy(cfg, kBox, {"LEFT"});
-  Pose T_cell_nozzle = Pose::Identity();  // the tip 1 cm into the sphere's top, spraying down
-  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  T_cell_nozzle.translation() = Point(0.02, 0.01, 0.12);
+  const Pose T_cell_nozzle = nozzleInTheSphere();
   for (const std::int64_t utime : {std::int64_t{-1}, CameraProxy::kMaxUtime + 1, INT64_MIN, INT64_MAX}) {
     const FrameError e = proxy.addDepth(render(s, rig[0], utime), rig[0], kT0);
     EXPECT_EQ(e.status, FrameStatus::kBadHeader);
@@ -188,9 +195,7 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   cfg.self_filter.length = 0.2;
   cfg.self_filter.effector.clear();  // the tube alone (the next test: the end effector)
   cfg.self_filter.margin = 0.005;
-  Pose T_cell_nozzle = Pose::Identity();  // tip 1 cm into the sphere's top, spraying down (+z of the nozzle = -z)
-  T_cell_nozzle.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  T_cell_nozzle.translation() = Point(0.02, 0.01, 0.12);
+  const Pose T_cell_nozzle = nozzleInTheSphere();  // +z of the nozzle = -z
   const DepthImage left = render(s, rig[0], kT0), right = render(s, rig[1], kT0);
   auto run = [&](const PerceptionConfig& c, std::int64_t nozzle_utime) {
     CameraProxy proxy(c, kBox, {"LEFT", "RIGHT"});
