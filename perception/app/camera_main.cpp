@@ -215,6 +215,11 @@ class CameraNode {
     heartbeat_.setStat("bytes_out", last_bytes_);
     heartbeat_.setStat("outliers_out", last_outliers_);
     heartbeat_.setStat("on_nozzle_out", last_on_nozzle_);
+    heartbeat_.setStat("clock_restarts", static_cast<double>(proxy_.clockRestarts()));
+    if (proxy_.clockRestarts() > reported_restarts_) {
+      reported_restarts_ = proxy_.clockRestarts();
+      std::fprintf(stderr, "depowder-camera: %s\n", proxy_.lastClockRestart().c_str());
+    }
     std::string reason;
     for (const CameraHealth& h : proxy_.health(nowUtime())) {
       heartbeat_.setStat("age_s_" + h.name, h.last_seen_age);
@@ -265,6 +270,7 @@ class CameraNode {
   std::int64_t seq_ = 0;
   double last_points_ = 0, last_bytes_ = 0, last_outliers_ = 0, last_on_nozzle_ = 0;
   std::int64_t reported_drops_ = 0;
+  std::int64_t reported_restarts_ = 0;
   Clock::time_point last_drop_time_{};
 };
 

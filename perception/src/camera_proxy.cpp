@@ -5,6 +5,8 @@
 #include <numeric>
 #include <optional>
 
+#include "depowder/clock.hpp"
+
 namespace depowder::perception {
 
 std::int64_t ProxyCounters::dropped() const {
@@ -112,6 +114,7 @@ std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {
 
 void CameraProxy::addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle) {
   if (!utimeTaken(utime)) return;
+  if (!nozzle_poses_.empty() && clockWentBack(nozzle_poses_.back().first, utime)) nozzle_poses_.clear();
   if (!nozzle_poses_.empty() && utime <= nozzle_poses_.back().first) return;
   nozzle_poses_.emplace_back(utime, T_cell_nozzle);
   while (nozzle_poses_.front().first < utime - 1000000) nozzle_poses_.pop_front();

@@ -1,7 +1,10 @@
 #include "depowder/perception/frame_merger.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
+
+#include "depowder/clock.hpp"
 
 namespace depowder::perception {
 
@@ -29,6 +32,11 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // Health first: a camera whose frames are all late is stale, not silent.
   Camera& cam = cameras_[frame.camera];
   cam.last_arrival = arrival;
+  cam.back_utime.reset();
+  if (clockWentBack(released_utime_, frame.utime)) {
+    cam.back_utime = frame.utime;
+    restartIfClockWentBack(arrival);  // else late, as from a camera whose clock runs behind the others'
+  }
   cam.last_utime = std::max(cam.last_utime, frame.utime);
   newest_utime_ = std::max(newest_utime_, frame.utime);
 
@@ -70,6 +78,30 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   return {};
 }
 
+void FrameMerger::restartIfClockWentBack(std::int64_t arrival) {
+  std::int64_t newest_back = INT64_MIN;
+  for (const auto& [name, c] : cameras_) {
+    const bool heard = c.last_arrival > 0 && arrival - c.last_arrival <= micros(config_.silent_after);
+    if (heard && !c.back_utime) return;
+    if (c.back_utime) newest_back = std::max(newest_back, *c.back_utime);
+  }
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "every camera's frames went back %.1f s behind the last time step published (a log played again, "
+                "or the cameras restarted): time steps start over",
+                static_cast<double>(behind(released_utime_, newest_back)) * 1e-6);
+  last_restart_ = buf;
+  ++restarts_;
+  for (Group& g : pending_) flushed_.push_back(release(std::move(g), arrival));
+  pending_.clear();
+  released_utime_ = INT64_MIN;
+  newest_utime_ = newest_back;
+  for (auto& [name, c] : cameras_) {
+    c.last_utime = c.back_utime.value_or(0);
+    c.back_utime.reset();
+  }
+}
+
 MergedFrame FrameMerger::release(Group&& group, std::int64_t now) const {
   MergedFrame out;
   out.utime = INT64_MIN;
@@ -97,8 +129,9 @@ std::vector<MergedFrame> FrameMerger::poll(std::int64_t now) {
       }
     if (complete || now - g.first_arrival >= wait) ready = i + 1;
   }
-  std::vector<MergedFrame> out;
-  out.reserve(ready);
+  std::vector<MergedFrame> out = std::move(flushed_);  // the old clock's, first
+  flushed_.clear();
+  out.reserve(out.size() + ready);
   for (std::size_t i = 0; i < ready; ++i) {
     released_utime_ = std::max(released_utime_, pending_[i].utime);
     out.push_back(release(std::move(pending_[i]), now));

@@ -1,7 +1,8 @@
 // depowder-camera as a process, over udpm inside a private network namespace (run it
 // through test/netns-run; ctest does): live frames from two cameras become one POINTS per
 // time step, identical to the library's output; corrupt frames are counted and the
-// process keeps running; recorded scans play in order past a corrupt file.
+// process keeps running; a frame from the far future does not stop the stream; recorded
+// scans play in order past a corrupt file.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -75,6 +76,27 @@ std::string liveCell() {
   return path;
 }
 
+// A live run at kPace of the default cell's LEFT and RIGHT (`cams`, as synthetic::defaultRig),
+// each sending its frame of `frames` every step. removeFiles(run) deletes what it made.
+CameraRunConfig liveRun(const std::string& name, const std::vector<PinholeCamera>& cams,
+                        const std::vector<DepthImage>& frames, int steps) {
+  CameraRunConfig run;
+  run.binary = kBinary;
+  run.extra_args = {"--cell", liveCell()};
+  run.prefix = uniquePrefix(name);
+  run.log_path = (fs::temp_directory_path() / (run.prefix + "camera.log")).string();
+  run.steps = steps;
+  run.rate_hz = kPace.rate_hz;
+  run.cameras = cams;
+  run.frames = {{frames[0]}, {frames[1]}};
+  return run;
+}
+
+void removeFiles(const CameraRunConfig& run) {
+  fs::remove(run.log_path);
+  if (run.extra_args[1] != kCell) fs::remove(run.extra_args[1]);
+}
+
 // The library's message for the frames of one time step (what depowder-camera must publish).
 point_cloud_t expectedCloud(const std::vector<PinholeCamera>& cams, const std::vector<DepthImage>& frames,
                             const std::vector<int>& which) {
@@ -95,16 +117,7 @@ TEST(CameraNetns, LiveFramesBecomeOnePointsPerTimeStepAndCorruptFramesAreSurvive
   const auto scene = synthetic::boxScene({0.40, 0.30, 0.20}, 0.08, {synthetic::Sphere{{0.02, 0.01, 0.09}, 0.04}});
   const std::vector<DepthImage> frames = {synthetic::render(scene, cams[0], 0), synthetic::render(scene, cams[1], 0)};
 
-  CameraRunConfig run;
-  run.binary = kBinary;
-  const std::string cell = liveCell();
-  run.extra_args = {"--cell", cell};
-  run.prefix = uniquePrefix("live");
-  run.log_path = (fs::temp_directory_path() / (run.prefix + "camera.log")).string();
-  run.steps = 90;  // 3 s at 30 Hz
-  run.rate_hz = kPace.rate_hz;
-  run.cameras = cams;
-  run.frames = {{frames[0]}, {frames[1]}};
+  CameraRunConfig run = liveRun("live", cams, frames, 90);  // 3 s at 30 Hz
   run.fault = [](int step, int camera, depth_image_t& msg, node::Bus& bus) {
     if (step == 30 && camera == 1) msg.width += 1;                                  // header disagrees with the data
     if (step == 45 && camera == 0) std::fill(msg.data.begin(), msg.data.end(), 0);  // no return at all
@@ -165,23 +178,15 @@ TEST(CameraNetns, LiveFramesBecomeOnePointsPerTimeStepAndCorruptFramesAreSurvive
       << log;
   EXPECT_NE(log.find("camera 'LEFT': frame 45 has no valid return"), std::string::npos) << log;
   EXPECT_NE(log.find("could not decode a 100-byte message on " + run.prefix + "DEPTH_LEFT"), std::string::npos) << log;
-  fs::remove(run.log_path);
-  if (cell != kCell) fs::remove(cell);
+  removeFiles(run);
 }
 
 TEST(CameraNetns, SilentCameraIsReportedAndDoesNotStallTheStream) {
   const auto cams = synthetic::defaultRig(320, 240);
   const auto scene = synthetic::boxScene({0.40, 0.30, 0.20}, 0.08, {});
-  CameraRunConfig run;
-  run.binary = kBinary;
-  const std::string cell = liveCell();
-  run.extra_args = {"--cell", cell};
-  run.prefix = uniquePrefix("silent");
-  run.log_path = (fs::temp_directory_path() / (run.prefix + "camera.log")).string();
-  run.steps = 75;  // 2.5 s at 30 Hz; RIGHT dies after 15 steps
-  run.rate_hz = kPace.rate_hz;
-  run.cameras = cams;
-  run.frames = {{synthetic::render(scene, cams[0], 0)}, {synthetic::render(scene, cams[1], 0)}};
+  // 2.5 s at 30 Hz; RIGHT dies after 15 steps
+  CameraRunConfig run =
+      liveRun("silent", cams, {synthetic::render(scene, cams[0], 0), synthetic::render(scene, cams[1], 0)}, 75);
   run.fault = [](int step, int camera, depth_image_t&, node::Bus&) { return !(camera == 1 && step >= 15); };
   run.grace_s = 0.3;
   const CameraRunResult r = runCamera(run);
@@ -203,8 +208,51 @@ TEST(CameraNetns, SilentCameraIsReportedAndDoesNotStallTheStream) {
   EXPECT_EQ(r.last_heartbeat.state, +heartbeat_t::STOPPING);
   EXPECT_NE(r.last_heartbeat.state_reason.find("camera RIGHT silent for"), std::string::npos)
       << r.last_heartbeat.state_reason;
-  fs::remove(run.log_path);
-  if (cell != kCell) fs::remove(cell);
+  removeFiles(run);
+}
+
+// A DEPTH frame stamped a year ahead goes out as a time step of its own. The next frames of both
+// cameras are a year behind it: the cameras' clock went back, so the process starts its time
+// steps over (and says so) rather than refusing every frame after it as late.
+TEST(CameraNetns, AFrameFromTheFarFutureDoesNotStopTheStream) {
+  const auto cams = synthetic::defaultRig(320, 240);
+  const auto scene = synthetic::boxScene({0.40, 0.30, 0.20}, 0.08, {});
+  CameraRunConfig run =
+      liveRun("future", cams, {synthetic::render(scene, cams[0], 0), synthetic::render(scene, cams[1], 0)}, 60);
+  constexpr std::int64_t kYear = 365LL * 24 * 3600 * 1'000'000;
+  run.fault = [](int step, int camera, depth_image_t& msg, node::Bus&) {
+    if (step == 30 && camera == 0) msg.utime += kYear;
+    return true;
+  };
+  run.grace_s = 0.5;
+  const CameraRunResult r = runCamera(run);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  // 119 frames of 120 are used: one camera's frame of step 30 or 31 comes while only the other
+  // has gone back, and is late. That is RIGHT's of step 30 (60 time steps with the year-ahead
+  // one), or, if it came before the year-ahead one went out, LEFT's of step 31 (61: RIGHT's
+  // frames of steps 30 and 31 go out alone).
+  const std::string log = readFile(run.log_path);
+  ASSERT_GE(r.clouds.size(), 60u) << log;
+  ASSERT_LE(r.clouds.size(), 61u) << log;
+  EXPECT_EQ(r.stat("frames_in"), 120) << log;
+  EXPECT_EQ(r.stat("dropped_late"), 1) << log;
+  EXPECT_EQ(r.stat("clock_restarts"), 1) << log;
+  // One is the year-ahead frame, LEFT's alone; before and after it, the utimes increase, and
+  // after the step it spoilt both cameras are in every one.
+  const std::int64_t far = r.published_utimes[0][0] + kYear / 2;
+  std::size_t ahead = 0, n_ahead = 0;
+  for (std::size_t k = 0; k < r.clouds.size(); ++k)
+    if (r.clouds[k].msg.utime > far) ++n_ahead, ahead = k;
+  ASSERT_EQ(n_ahead, 1u);
+  EXPECT_EQ(r.clouds[ahead].msg.sources, std::vector<std::string>{"LEFT"});
+  for (std::size_t k = 1; k < r.clouds.size(); ++k)
+    if (k != ahead && k != ahead + 1) {
+      EXPECT_GT(r.clouds[k].msg.utime, r.clouds[k - 1].msg.utime) << k;
+    }
+  for (std::size_t k = ahead + 2; k < r.clouds.size(); ++k) EXPECT_EQ(r.clouds[k].msg.num_sources, 2) << k;
+  EXPECT_NE(log.find("every camera's frames went back"), std::string::npos) << log;
+  EXPECT_EQ(r.exit_code, 0) << log;
+  removeFiles(run);
 }
 
 TEST(CameraNetns, RecordedScansPlayInOrderPastACorruptFile) {

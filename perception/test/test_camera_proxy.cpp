@@ -155,6 +155,48 @@ TEST(CameraProxy, FramesAndPosesStampedOutsideTheUtimesTakenAreRefused) {
   EXPECT_EQ(proxy.counters().by_status[static_cast<int>(FrameStatus::kBadHeader)], 4);
 }
 
+// A frame and a nozzle pose stamped a year ahead (inside the utimes taken) go through, but do not
+// keep the stream out afterwards: when every camera's next frame is far behind, the cameras'
+// clock went back and the time steps start over; the robot's poses likewise. One frame is lost:
+// the first camera's, while the other has not yet gone back.
+TEST(CameraProxy, AFrameFromTheFarFutureDoesNotStopTheStream) {
+  const auto rig = defaultRig(160, 120);
+  const Scene s = scene();
+  PerceptionConfig cfg;
+  cfg.self_filter.margin = 0.005;
+  CameraProxy proxy(cfg, kBox, {"LEFT", "RIGHT"});
+  constexpr std::int64_t kYear = 365LL * 24 * 3600 * 1'000'000, kFrame = 33'333;
+  const Pose T_cell_nozzle = nozzleInTheSphere();
+  auto step = [&](std::int64_t utime, std::int64_t now) {
+    const FrameError left = proxy.addDepth(render(s, rig[0], utime), rig[0], now);  // LEFT first
+    return std::make_pair(left, proxy.addDepth(render(s, rig[1], utime), rig[1], now));
+  };
+  step(kT0, kT0);
+  ASSERT_EQ(proxy.poll(kT0).size(), 1u);
+  ASSERT_TRUE(proxy.addDepth(render(s, rig[0], kT0 + kYear), rig[0], kT0 + kFrame).ok());
+  proxy.addNozzlePose(kT0 + kYear, T_cell_nozzle);
+  auto out = proxy.poll(kT0 + kFrame);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].utime, kT0 + kYear);
+
+  proxy.addNozzlePose(kT0 + 2 * kFrame, T_cell_nozzle);
+  const auto [left, right] = step(kT0 + 2 * kFrame, kT0 + 2 * kFrame);
+  EXPECT_EQ(left.status, FrameStatus::kLate);
+  EXPECT_TRUE(right.ok()) << right.message;
+  EXPECT_EQ(proxy.clockRestarts(), 1);
+  out = proxy.poll(kT0 + 2 * kFrame + 41'000);  // RIGHT's alone, after max_wait
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].utime, kT0 + 2 * kFrame);
+  EXPECT_GT(out[0].on_nozzle, 0u);  // the pose of the clock gone back was taken
+  const auto [left3, right3] = step(kT0 + 3 * kFrame, kT0 + 4 * kFrame);
+  EXPECT_TRUE(left3.ok() && right3.ok());
+  out = proxy.poll(kT0 + 4 * kFrame);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].sources.size(), 2u);
+  EXPECT_EQ(proxy.clockRestarts(), 1);
+  EXPECT_EQ(proxy.counters().dropped(), 1);
+}
+
 // Flying pixels at depth edges (the sphere's silhouette against the powder) make isolated
 // voxels; isolated-voxel removal takes most of them and almost none of the surface.
 TEST(CameraProxy, IsolatedVoxelRemovalTakesFlyingPixels) {

@@ -1,4 +1,5 @@
-// Frame merger: matching by utime, max wait, silent / stale cameras, late and duplicate frames.
+// Frame merger: matching by utime, max wait, silent / stale cameras, late and duplicate frames,
+// the clock going back.
 #include <gtest/gtest.h>
 
 #include "depowder/perception/frame_merger.hpp"
@@ -138,22 +139,67 @@ TEST(FrameMerger, LateAndDuplicateFramesAreRejected) {
 }
 
 TEST(FrameMerger, StaleCameraIsReportedAndNotWaitedFor) {
-  FrameMerger m(config());
-  // RIGHT's clock is 2 s behind: its frames are late, it is reported stale, LEFT flows on.
-  for (int i = 0; i < 10; ++i) {
-    const std::int64_t t = kT0 + i * 33 * kMs;
-    ASSERT_TRUE(m.add(frame("LEFT", t), t).ok());
-    const FrameError e = m.add(frame("RIGHT", t - 2000 * kMs), t + kMs);
-    if (i > 0) {
-      EXPECT_EQ(e.status, FrameStatus::kLate);
+  // RIGHT's clock is 2 s (or 60 s) behind: its frames are late, it is reported stale, LEFT flows
+  // on. It is not the clock going back: LEFT's frames do not.
+  for (const std::int64_t lag : {2000 * kMs, 60000 * kMs}) {
+    FrameMerger m(config());
+    for (int i = 0; i < 10; ++i) {
+      const std::int64_t t = kT0 + i * 33 * kMs;
+      ASSERT_TRUE(m.add(frame("LEFT", t), t).ok());
+      const FrameError e = m.add(frame("RIGHT", t - lag), t + kMs);
+      if (i > 0) {
+        EXPECT_EQ(e.status, FrameStatus::kLate);
+      }
+      const auto out = m.poll(t + kMs);
+      ASSERT_EQ(out.size(), i == 0 ? 2u : 1u) << i;  // step 0: RIGHT's first frame goes out alone, first
     }
-    const auto out = m.poll(t + kMs);
-    ASSERT_EQ(out.size(), i == 0 ? 2u : 1u) << i;  // step 0: RIGHT's first frame goes out alone, first
+    EXPECT_EQ(m.restarts(), 0);
+    const auto health = m.health(kT0 + 400 * kMs);
+    ASSERT_EQ(health.size(), 2u);
+    EXPECT_TRUE(health[1].stale);
+    EXPECT_FALSE(health[1].silent);
+    EXPECT_NEAR(health[1].utime_lag, lag * 1e-6, 1e-9);
+    EXPECT_FALSE(health[0].stale);
   }
-  const auto health = m.health(kT0 + 400 * kMs);
-  ASSERT_EQ(health.size(), 2u);
-  EXPECT_TRUE(health[1].stale);
-  EXPECT_FALSE(health[1].silent);
-  EXPECT_NEAR(health[1].utime_lag, 2.0, 1e-9);
-  EXPECT_FALSE(health[0].stale);
+}
+
+TEST(FrameMerger, EveryCameraGoingBackStartsTheTimeStepsOver) {
+  // A log played again: both cameras' frames come from 60 s before the last time step published.
+  FrameMerger m(config(), {"LEFT", "RIGHT"});
+  const std::int64_t first = kT0 + 60000 * kMs;
+  std::int64_t now = kT0;
+  for (int i = 0; i < 3; ++i, now += 33 * kMs) {
+    ASSERT_TRUE(m.add(frame("LEFT", first + i * 33 * kMs), now).ok());
+    ASSERT_TRUE(m.add(frame("RIGHT", first + i * 33 * kMs), now).ok());
+    ASSERT_EQ(m.poll(now).size(), 1u);
+  }
+  ASSERT_TRUE(m.add(frame("LEFT", first + 99 * kMs), now).ok());  // waiting for RIGHT's when the clock goes back
+
+  // LEFT goes back first: late, as a camera whose clock runs behind; RIGHT follows: over.
+  const FrameError left = m.add(frame("LEFT", kT0), now + kMs);
+  EXPECT_EQ(left.status, FrameStatus::kLate);
+  EXPECT_EQ(m.restarts(), 0);
+  ASSERT_TRUE(m.add(frame("RIGHT", kT0), now + 2 * kMs).ok());
+  EXPECT_EQ(m.restarts(), 1);
+  EXPECT_NE(m.lastRestart().find("went back 60.1 s"), std::string::npos) << m.lastRestart();
+
+  // The step that was waiting goes out as it was, then the new clock's steps, both cameras in each.
+  auto out = m.poll(now + 2 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].utime, first + 99 * kMs);
+  for (int i = 1; i <= 3; ++i) {
+    ASSERT_TRUE(m.add(frame("LEFT", kT0 + i * 33 * kMs), now + i * 33 * kMs).ok()) << i;
+    ASSERT_TRUE(m.add(frame("RIGHT", kT0 + i * 33 * kMs), now + i * 33 * kMs).ok()) << i;
+  }
+  out = m.poll(now + 100 * kMs);
+  ASSERT_EQ(out.size(), 4u);  // RIGHT's first alone (LEFT's was late), then three pairs
+  EXPECT_EQ(out[0].utime, kT0);
+  for (int i = 1; i <= 3; ++i) {
+    EXPECT_EQ(out[i].utime, kT0 + i * 33 * kMs);
+    EXPECT_EQ(out[i].sources.size(), 2u);
+  }
+  for (const CameraHealth& h : m.health(now + 100 * kMs)) {
+    EXPECT_FALSE(h.stale) << h.name;
+    EXPECT_EQ(h.utime_lag, 0) << h.name;
+  }
 }

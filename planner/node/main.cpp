@@ -45,16 +45,18 @@ int main(int argc, char** argv) {
     heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
     heartbeat.setStat("arm_model", options.arm_model);         // the driver moves only an arm it shares
     std::string last_rejection;                                // printed once per distinct reason, counted always
-    auto rejected = [&](const planner::InputResult& r) {
-      if (r.ok()) return;
+    auto report = [&](const planner::InputResult& r) {
+      if (r.ok()) {
+        if (!r.reason.empty()) std::cerr << "depowder-planner: " << r.reason << std::endl;  // e.g. the clock went back
+        return;
+      }
       heartbeat.addDropped();
       if (r.reason != last_rejection) std::cerr << "depowder-planner: rejected: " << r.reason << std::endl;
       last_rejection = r.reason;
     };
-    bus.subscribe<part_pose_t>("PART_POSE",
-                               [&](const part_pose_t& m, const std::string&) { rejected(logic.onPose(m)); });
+    bus.subscribe<part_pose_t>("PART_POSE", [&](const part_pose_t& m, const std::string&) { report(logic.onPose(m)); });
     bus.subscribe<progress_t>("PROGRESS",
-                              [&](const progress_t& m, const std::string&) { rejected(logic.onProgress(m)); });
+                              [&](const progress_t& m, const std::string&) { report(logic.onProgress(m)); });
     // A driver that has just started (or come back) refuses plans until it has heard this
     // planner's heartbeat: its first ROBOT_STATE after a silence gets one at once, ahead of the
     // plan it leads to, rather than at the next tick.
@@ -63,7 +65,7 @@ int main(int argc, char** argv) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last_robot_state > std::chrono::seconds(1)) heartbeat.publish();
       last_robot_state = now;
-      rejected(logic.onRobot(m));
+      report(logic.onRobot(m));
     });
     heartbeat.setState(heartbeat_t::RUNNING);
     heartbeat.publish();
@@ -86,6 +88,7 @@ int main(int argc, char** argv) {
       heartbeat.setStat("holds", static_cast<double>(s.holds));
       heartbeat.setStat("refreshes", static_cast<double>(s.refreshes));
       heartbeat.setStat("rejected", static_cast<double>(s.rejected));
+      heartbeat.setStat("clock_restarts", static_cast<double>(logic.planner().clockRestarts()));
       heartbeat.setStat("planning_ms", s.last_planning_ms);
       heartbeat.setStat("path_ms", s.last_path_ms);
       for (const planner::PartReport& p : logic.planner().parts()) {

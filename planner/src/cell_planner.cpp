@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "depowder/clock.hpp"
+
 namespace depowder::planner {
 
 const char* toString(ProgressStatus s) {
@@ -96,6 +98,7 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
   if (!isValidPose(in.T_cell_part, 1e-6))
     return {InputStatus::kInvalidPose,
             "PART_POSE of " + in.part + " is not a valid rigid transform (NaN or not orthonormal)"};
+  const std::string restart = restartIfClockWentBack("PART_POSE", in.part, in.utime);
   PartState& s = states_[i];
   if (s.pose && in.utime < s.pose->utime)
     return {InputStatus::kOutOfOrder, "PART_POSE of " + in.part + " is older than the last one"};
@@ -113,7 +116,7 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
       s.moved_utime = in.utime;
     }
   }
-  return {};
+  return {InputStatus::kAccepted, restart};
 }
 
 InputResult CellPlanner::onProgress(const ProgressInput& in) {
@@ -132,6 +135,7 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   if (in.status == ProgressStatus::kOk && in.contour.size() < 3)
     return {InputStatus::kInvalidContour,
             "PROGRESS of " + in.part + " says OK but its contour has " + std::to_string(in.contour.size()) + " points"};
+  const std::string restart = restartIfClockWentBack("PROGRESS", in.part, in.utime);
   PartState& s = states_[i];
   if (s.progress && in.utime < s.progress->utime)
     return {InputStatus::kOutOfOrder, "PROGRESS of " + in.part + " is older than the last one"};
@@ -139,18 +143,38 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   if (in.status == ProgressStatus::kOk) s.powder = in.h_pow;
   newest_utime_ = std::max(newest_utime_, in.utime);
   newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
-  return {};
+  return {InputStatus::kAccepted, restart};
 }
 
 InputResult CellPlanner::onRobot(const RobotInput& in) {
   for (double v : in.q)
     if (!std::isfinite(v)) return {InputStatus::kInvalidValue, "ROBOT_STATE has non-finite joints"};
+  if (robot_ && cycle_end_robot_utime_ >= 0 && clockWentBack(robot_->utime, in.utime))
+    cycle_end_robot_utime_ = in.utime;
   robot_ = in;
   if (active_is_cycle_ && cycle_end_robot_utime_ < 0 && cycleFinished()) {  // the cycle just ended (step 2a)
     cycle_end_progress_utime_ = newest_progress_utime_;
     cycle_end_robot_utime_ = in.utime;
   }
   return {};
+}
+
+std::string CellPlanner::restartIfClockWentBack(const char* what, const std::string& part, std::int64_t utime) {
+  if (newest_utime_ == 0 || !clockWentBack(newest_utime_, utime)) return "";
+  char buf[96];
+  std::snprintf(buf, sizeof buf, " is %.1f s behind the newest input",
+                static_cast<double>(behind(newest_utime_, utime)) * 1e-6);
+  for (PartState& s : states_) {  // all but the part itself
+    PartState fresh;
+    fresh.spec = std::move(s.spec);
+    s = std::move(fresh);
+  }
+  newest_utime_ = newest_progress_utime_ = active_utime_ = 0;
+  cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
+  active_is_cycle_ = false;
+  ++clock_restarts_;
+  return what + (" of " + part) + buf +
+         ": the frames' clock went back (a log played again, or the cameras restarted); planning starts over";
 }
 
 void CellPlanner::updateWorld() {

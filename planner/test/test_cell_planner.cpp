@@ -416,6 +416,52 @@ TEST_F(CellTest, AllDoneGoesHome) {
   EXPECT_FALSE(planner->step()) << "home is planned once";
 }
 
+// A log played again into the running planner, then a pose stamped a year ahead: each time the
+// next inputs are far behind the newest, the frames' clock went back. The planner forgets the old
+// clock's inputs and times and plans afresh, where it used to refuse every input as out of order
+// (and, with the pose from the future, hold the nozzle away from a "moving" part for ever).
+TEST_F(CellTest, TheFramesClockGoingBackStartsThePlanningOver) {
+  config.replan.settle_s = 1.0;
+  SetUp();
+  frame("left", T_left, Phase::kDone, 0.0);
+  frame("right", T_right, Phase::kDone, 0.0);
+  ASSERT_TRUE(planner->step());
+  ASSERT_TRUE(planner->finished());
+  // A second older is a pose out of order, as before.
+  EXPECT_EQ(planner->onPose({"left", utime - kSecond, T_left, TrackStatus::kTracking, ""}).status,
+            InputStatus::kOutOfOrder);
+
+  utime -= 60 * kSecond;  // the log from its start
+  const InputResult again = planner->onPose({"left", utime, T_left, TrackStatus::kTracking, ""});
+  EXPECT_TRUE(again.ok());
+  EXPECT_NE(again.reason.find("PART_POSE of left is 60.0 s behind"), std::string::npos) << again.reason;
+  EXPECT_EQ(planner->clockRestarts(), 1);
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  auto p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "no plan");
+  EXPECT_FALSE(planner->finished());
+  EXPECT_EQ(p->phase, Phase::kVacuumTracked);
+
+  // A tipped pose from a year ahead is taken: the part moved, the nozzle goes away.
+  const std::int64_t now = utime;
+  utime += 365LL * 24 * 3600 * kSecond;
+  frame("left", T_left * makePoseRpy({0, 0, 0}, 0, 0.15, 0), Phase::kVacuumTracked, 0.04);
+  auto away = planner->step();
+  ASSERT_TRUE(away);
+  EXPECT_NE(away->reason.find("moving: left"), std::string::npos) << away->reason;
+  // The next frames are a year behind it: the clock went back again, and the watch is forgotten.
+  utime = now + 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  EXPECT_EQ(planner->clockRestarts(), 2);
+  auto resumed = planner->step();
+  ASSERT_TRUE(resumed && resumed->hasWaypoints()) << (resumed ? resumed->reason : "no plan");
+  EXPECT_EQ(resumed->reason.find("moving"), std::string::npos) << resumed->reason;
+  EXPECT_GT(withTool(*resumed, Tool::kVacuum).size(), 20u);
+  EXPECT_EQ(resumed->utime, utime);
+}
+
 TEST_F(CellTest, BadMessagesGiveAStatusAndNoPlan) {
   PoseInput bad;
   bad.part = "left";

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "depowder/clock.hpp"
+
 namespace depowder::progress {
 
 const char* toString(EtaFilterMode m) {
@@ -109,7 +111,9 @@ Phase PhaseMachine::update(double eta, std::int64_t utime) {
   }
   if (phase_ != Phase::kAirBlast) return phase_;
 
-  // Done once the blast pass has run long enough and then confirms eta at the target.
+  // Done once the blast pass has run long enough and then confirms eta at the target. The blast
+  // is timed from a frame far behind its start anew: the frames' clock went back (depowder/clock.hpp).
+  if (blast_utime_ >= 0 && clockWentBack(blast_utime_, utime)) blast_utime_ = utime;
   const bool blasted = blast_utime_ >= 0 && (utime - blast_utime_) * 1e-6 >= config_.blast_min_s;
   frames_at_target_ = blasted && eta >= config_.done_eta ? frames_at_target_ + 1 : 0;
   if (frames_at_target_ >= config_.done_frames) phase_ = Phase::kDone;

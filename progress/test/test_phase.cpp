@@ -171,5 +171,21 @@ TEST(Phase, DoneNeedsTheTargetConfirmedAfterTheBlast) {
   EXPECT_EQ(m.phase(), Phase::kDone);
 }
 
+// An air-blast plan stamped a year ahead (or the frames' clock going back during the blast):
+// the blast is timed from the first frame far behind its start, so the part is still done after
+// blast_min_s of frames, not a year later.
+TEST(Phase, TheBlastIsTimedAnewWhenTheClockGoesBack) {
+  PhaseMachine m;
+  std::int64_t t = 0;
+  m.update(0.31, t += kFrameUs);
+  m.update(0.95, t += kFrameUs);
+  ASSERT_EQ(m.phase(), Phase::kAirBlast);
+  m.airBlastStarted(t + 365LL * 24 * 3600 * 1'000'000);
+  const std::int64_t from = t + kFrameUs;
+  while (m.phase() != Phase::kDone && t < from + 20'000'000) m.update(0.95, t += kFrameUs);
+  EXPECT_EQ(m.phase(), Phase::kDone);
+  EXPECT_NEAR((t - from) * 1e-6, 5.0 + 9 * kFrameUs * 1e-6, kFrameUs * 1e-6 + 1e-9);
+}
+
 }  // namespace
 }  // namespace depowder::progress

@@ -68,13 +68,18 @@ class CameraProxy {
   void reject(const FrameError& error);
 
   /// The nozzle's pose at `utime` (ROBOT_STATE): points on it are removed from the time steps
-  /// nearest it (config.self_filter). Poses must come in time order; an older one is ignored.
+  /// nearest it (config.self_filter). Poses must come in time order: an older one is ignored,
+  /// unless it is so much older that the robot's clock went back (depowder/clock.hpp), and
+  /// then the poses kept start over from it.
   void addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle);
   /// Clouds ready at wall-clock `now`, oldest first.
   std::vector<CellCloud> poll(std::int64_t now);
 
   std::int64_t nextDeadline() const { return merger_.nextDeadline(); }
   std::vector<CameraHealth> health(std::int64_t now) const { return merger_.health(now); }
+  /// Times the cameras' clock went back and the time steps started over (FrameMerger), and the last, said.
+  std::int64_t clockRestarts() const { return merger_.restarts(); }
+  const std::string& lastClockRestart() const { return merger_.lastRestart(); }
   const ProxyCounters& counters() const { return counters_; }
   /// Each camera's agreement with the reference, by camera name (none until two cameras were checked).
   const std::map<std::string, CameraAgreement>& agreement() const { return agreement_; }

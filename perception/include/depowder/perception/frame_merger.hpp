@@ -5,10 +5,16 @@
 // Two clocks: `utime` is the capture time a frame carries (matching, staleness; works
 // for replayed logs), `now` / `arrival` is the wall clock of this process (waiting,
 // silence). Both in microseconds; the caller passes them, so tests control time.
+//
+// The capture clock going back (depowder/clock.hpp) is told from a camera whose clock runs
+// behind the others: only when every camera heard within silent_after has sent a frame more
+// than kClockJumpBack behind the last time step published does the merger start over. The
+// time steps still waiting go out as they are, and the new frames are grouped from scratch.
 #pragma once
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,10 +53,12 @@ class FrameMerger {
   explicit FrameMerger(MergerConfig config = {}, std::vector<std::string> known_cameras = {});
 
   /// Files a frame under its time step. kLate: its time step was already released;
-  /// kDuplicate: the same camera already has a frame with this utime waiting.
+  /// kDuplicate: the same camera already has a frame with this utime waiting. The frame that
+  /// completes a clock going back is filed as the first of the new time steps.
   FrameError add(CameraFrame frame, std::int64_t arrival);
 
-  /// Time steps ready at `now`, oldest first (utime strictly increasing across calls).
+  /// Time steps ready at `now`, oldest first (utime strictly increasing across calls, but for
+  /// the clock going back).
   std::vector<MergedFrame> poll(std::int64_t now);
 
   /// Wall-clock time (us) at which the oldest waiting time step times out; 0 if none waits.
@@ -60,6 +68,10 @@ class FrameMerger {
   std::vector<CameraHealth> health(std::int64_t now) const;
 
   std::size_t pending() const { return pending_.size(); }
+
+  /// Times the capture clock went back and the merger started over, and the last one, said.
+  std::int64_t restarts() const { return restarts_; }
+  const std::string& lastRestart() const { return last_restart_; }
 
  private:
   struct Group {
@@ -71,18 +83,24 @@ class FrameMerger {
     std::int64_t frames = 0;        ///< accepted
     std::int64_t last_arrival = 0;  ///< 0 = never
     std::int64_t last_utime = 0;
+    std::optional<std::int64_t> back_utime;  ///< its newest frame, if far behind the last time step published
   };
   /// Waited for: seen within silent_after and not stale.
   bool expected(const Camera& c, std::int64_t now) const;
   bool stale(const Camera& c) const;
   MergedFrame release(Group&& group, std::int64_t now) const;
+  /// Starts over if every camera heard within silent_after has gone back.
+  void restartIfClockWentBack(std::int64_t arrival);
 
   MergerConfig config_;
   std::map<std::string, Camera> cameras_;
   std::vector<Group> pending_;               ///< sorted by utime
+  std::vector<MergedFrame> flushed_;         ///< time steps of the old clock, released at the next poll
   std::int64_t released_utime_ = INT64_MIN;  ///< reference utime of the last released group
   std::int64_t newest_utime_ = INT64_MIN;
   std::int64_t start_ = 0;  ///< arrival of the first frame (wall clock)
+  std::int64_t restarts_ = 0;
+  std::string last_restart_;
 };
 
 }  // namespace depowder::perception

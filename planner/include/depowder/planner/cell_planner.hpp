@@ -58,7 +58,7 @@ const char* toString(InputStatus s);
 
 struct InputResult {
   InputStatus status = InputStatus::kAccepted;
-  std::string reason;
+  std::string reason;  ///< why it was refused; for one accepted, what it changed beyond itself (or "")
   bool ok() const { return status == InputStatus::kAccepted; }
 };
 
@@ -83,8 +83,13 @@ class CellPlanner {
               const PlannerConfig& config = {});
   ~CellPlanner();
 
+  /// A pose or progress older than the part's last is refused (kOutOfOrder), unless it is so
+  /// much older than the newest input that the frames' clock went back (depowder/clock.hpp): then
+  /// every pose, progress and time of the old clock is forgotten, the parts are planned afresh
+  /// from the inputs that follow, and the result's reason says so.
   InputResult onPose(const PoseInput& in);
   InputResult onProgress(const ProgressInput& in);
+  /// The robot's clock going back dates the end of the running cycle anew.
   InputResult onRobot(const RobotInput& in);
 
   /// Decides. Returns a plan to publish, or nothing when the current plan stands. A hold
@@ -97,6 +102,8 @@ class CellPlanner {
   /// True once every part is DONE (and the home move was planned).
   bool finished() const { return finished_; }
   const CollisionWorld& world() const;
+  /// Times the frames' clock went back and the planning started over.
+  std::int64_t clockRestarts() const { return clock_restarts_; }
 
  private:
   struct PartState;
@@ -106,6 +113,9 @@ class CellPlanner {
   std::optional<Plan> refresh(std::int64_t utime);
   bool eligible(int i) const;
   bool cycleFinished() const;
+  /// Forgets the old clock's inputs and times if `utime` is far behind the newest input; says so
+  /// ("" if not), naming the message (`what` of `part`).
+  std::string restartIfClockWentBack(const char* what, const std::string& part, std::int64_t utime);
   void updateWorld();
 
   PlannerConfig config_;
@@ -114,8 +124,8 @@ class CellPlanner {
   std::vector<PartState> states_;
   std::vector<PartReport> reports_;
   std::optional<RobotInput> robot_;
-  std::int64_t newest_utime_ = 0;
-  std::int64_t newest_progress_utime_ = 0;  ///< the last step of a frame's pipeline
+  std::int64_t newest_utime_ = 0;  ///< of the poses and progress taken (0: none since the start or the clock went back)
+  std::int64_t newest_progress_utime_ = 0;                                   ///< the last step of a frame's pipeline
   std::int64_t cycle_end_progress_utime_ = -1, cycle_end_robot_utime_ = -1;  ///< when the active cycle was seen done
   std::int64_t next_plan_id_ = 1;
   // The plan being executed.
@@ -135,6 +145,7 @@ class CellPlanner {
   std::string last_hold_;
   std::string home_reason_;  ///< why the last home move was planned ("" if none since the last cycle)
   bool finished_ = false;
+  std::int64_t clock_restarts_ = 0;
 };
 
 }  // namespace depowder::planner

@@ -1,0 +1,31 @@
+// The clock-jump rule of every process that orders what it receives by utime.
+//
+// A message stamped a little older than the newest one taken is late or reordered, and is
+// refused or set aside as each process documents. One stamped more than kClockJumpBack older
+// is not late: the clock of its source went back. A log was played again into running
+// processes, a camera, simulator or host restarted with another clock, or a message stamped in
+// the future was taken before it. Refusing it would refuse everything after it until the old
+// time comes round again (for a log played twice, its length; for a stamp years ahead, for
+// ever), so the process starts its time bookkeeping over from it instead and says so.
+#pragma once
+
+#include <cstdint>
+
+namespace depowder {
+
+/// us a utime must be behind the newest one taken to count as the clock going back: far more
+/// than any lateness (the camera proxy waits 40 ms for a time step, the planner holds on a pose
+/// 1 s behind), far less than a log played again.
+inline constexpr std::int64_t kClockJumpBack = 2'000'000;
+
+/// How far `utime` is behind `newest`, us, as an unsigned difference: no int64 pair overflows it.
+inline std::uint64_t behind(std::int64_t newest, std::int64_t utime) {
+  return utime < newest ? static_cast<std::uint64_t>(newest) - static_cast<std::uint64_t>(utime) : 0;
+}
+
+/// Whether `utime` is more than kClockJumpBack behind `newest`.
+inline bool clockWentBack(std::int64_t newest, std::int64_t utime) {
+  return behind(newest, utime) > static_cast<std::uint64_t>(kClockJumpBack);
+}
+
+}  // namespace depowder
