@@ -2,6 +2,7 @@
 //   wait COND      block until the live cell reaches COND (tracking | vacuum); print its utime
 //   garbage        publish random bytes, messages of the wrong type and oversized messages on
 //                  every depowder channel for a bounded time
+//   future         publish one camera frame again, stamped far in the future
 //   report CASE    read the run's LCM log and print what the fault did (stop times, gaps, jumps,
 //                  restarts, decode errors), then check it against the limits stated below;
 //                  exit 1 if a check fails
@@ -22,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "depowder/depth_image_t.hpp"
 #include "depowder/estop_t.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/launcher_status_t.hpp"
@@ -44,8 +46,9 @@ namespace {
 int usage() {
   std::cerr << "usage: fault_probe wait tracking|vacuum [--timeout S]\n"
                "       fault_probe garbage [--seconds S] [--rate HZ] [--seed N]\n"
+               "       fault_probe future [--ahead S]\n"
                "       fault_probe report CASE LOG --cell FILE --at UTIME [--until UTIME]\n"
-               "  CASE: tracker_killed | link_cut | estop | garbage | camera_silent | controller_drop\n";
+               "  CASE: tracker_killed | link_cut | estop | garbage | camera_silent | controller_drop | clock_jump\n";
   return 2;
 }
 
@@ -119,6 +122,24 @@ int garbage(double seconds, double rate_hz, unsigned seed) {
   }
   std::cout << "garbage: " << sent << " messages, " << bytes / 1000000.0 << " MB on " << channels.size()
             << " channels in " << seconds << " s" << std::endl;
+  return 0;
+}
+
+// ---------------------------------------------------------------- future
+// The next DEPTH_LEFT frame published once more, stamped `ahead_s` later: a camera whose clock
+// glitched, or a host whose clock is wrong. Prints the wall utime it went out.
+int future(double ahead_s) {
+  node::Bus bus;
+  std::optional<depth_image_t> frame;
+  bus.subscribe<depth_image_t>("DEPTH_LEFT", [&](const depth_image_t& m, const std::string&) {
+    if (!frame) frame = m;
+  });
+  if (!bus.spinUntil([&] { return frame.has_value(); }, 10))
+    return std::cerr << "fault_probe: no DEPTH_LEFT frame within 10 s\n", 1;
+  frame->utime += static_cast<std::int64_t>(ahead_s * 1e6);
+  const std::int64_t at = node::nowUtime();
+  bus.publish("DEPTH_LEFT", *frame);
+  std::cout << at << std::endl;
   return 0;
 }
 
@@ -464,6 +485,39 @@ int report(const std::string& fault, const std::string& log_path, const std::str
         tracker_said = h.state_reason;
     std::printf("tracker said: %s\n", tracker_said.c_str());
     c.check(!tracker_said.empty(), "the tracker reported tracking on the remaining camera");
+  } else if (fault == "clock_jump") {
+    // One frame a year ahead: it goes out, and every process that orders by utime starts over
+    // when the next ones are that far behind it, rather than refusing them.
+    constexpr std::int64_t kDay = 86400LL * 1000000;
+    int ahead = 0, after = 0;
+    for (const point_cloud_t& p : log.clouds) {
+      if (p.utime > at + kDay)
+        ++ahead;
+      else if (p.utime > at + 1000000 && p.utime <= at + 11000000)
+        ++after;
+    }
+    c.measured("POINTS stamped a day or more ahead", ahead, "");
+    c.check(ahead == 1, "the frame from the future went out as one time step");
+    c.measured("POINTS from 1 to 11 s after it", after, "");
+    c.check(after >= 240, "POINTS kept coming (24 a second or more)");
+    std::map<std::string, double> restarts;
+    for (const heartbeat_t& h : log.heartbeats)
+      for (std::size_t i = 0; i < h.stat_names.size(); ++i)
+        if (h.stat_names[i] == "clock_restarts") restarts[h.process] = std::max(restarts[h.process], h.stat_values[i]);
+    for (const char* p : {"depowder-camera", "depowder-planner"}) {
+      c.measured(std::string(p) + " clock restarts", restarts[p], "");
+      c.check(restarts[p] >= 1, std::string(p) + " started its clock over and counted it");
+    }
+    std::int64_t resumed = 0;
+    bool followed_future = false;
+    for (const robot_state_t& s : log.states) {
+      followed_future = followed_future || s.plan_utime > at + kDay;
+      if (!resumed && s.mode == robot_state_t::MODE_FOLLOWING && s.plan_utime > at && s.plan_utime < at + kDay)
+        resumed = s.utime;
+    }
+    c.check(!followed_future, "the driver followed no plan stamped in the future");
+    if (resumed) c.measured("fault -> following a plan from a later frame", (resumed - at) * 1e-6, "s");
+    c.check(resumed && resumed - at < 5000000, "the arm followed plans from later frames within 5 s");
   } else if (fault == "controller_drop") {
     // Reported: a DISCONNECTED ROBOT_STATE (ROBOT_STATE comes every 8 ms: a reconnect faster than
     // that shows only in the heartbeat's counter), then the reconnect counted in the heartbeat.
@@ -518,6 +572,7 @@ int main(int argc, char** argv) {
     if (cmd == "wait" && pos.size() == 1) return waitFor(pos[0], num("--timeout", 300));
     if (cmd == "garbage")
       return garbage(num("--seconds", 20), num("--rate", 5), static_cast<unsigned>(num("--seed", 1)));
+    if (cmd == "future") return future(num("--ahead", 365 * 86400.0));
     if (cmd == "report" && pos.size() == 2 && opt.count("--cell") && opt.count("--at"))
       return report(pos[0], pos[1], opt["--cell"], std::stoll(opt["--at"]),
                     opt.count("--until") ? std::stoll(opt["--until"]) : 0);

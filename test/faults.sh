@@ -14,6 +14,8 @@
 #                    RIGHT, the camera proxy reports it
 #   controller_drop  the controller drops every b-CAP connection (sim.faults): the driver
 #                    reports it, reconnects, re-takes the arm, no jump
+#   clock_jump       one camera frame published again stamped a year ahead: it goes out, then
+#                    the camera proxy and the planner start their clocks over; the run completes
 # usage: test/faults.sh BUILD_DIR SOURCE_DIR FAULT   (needs root; prints what it measured)
 set -eu
 BUILD=$1
@@ -135,6 +137,11 @@ garbage)
   on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
   at=$(now); on 1 "$PROBE" garbage --seconds 20 --rate 5 --seed 1
   wait_run ;;
+clock_jump)
+  on 1 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  sleep 3
+  at=$(on 1 "$PROBE" future --ahead 31536000)
+  wait_run ;;
 camera_silent | controller_drop)
   # sim.faults at t = 70 s; 20 s of it, then 10 s more.
   on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
@@ -173,7 +180,7 @@ summary_has() {
   fi
 }
 case $FAULT in
-tracker_killed | garbage)  # these runs must still finish the part
+tracker_killed | garbage | clock_jump)  # these runs must still finish the part
   grep -A14 "run summary" "launch_$main.out" || true
   # (contacts away from the fault come from tracking accuracy: the summary above prints them)
   summary_has '"done": true' "the run completed" "the run did not complete cleanly" ;;
