@@ -6,6 +6,7 @@
 
 #include "depowder/geometry.hpp"
 #include "depowder/perception/camera_agreement.hpp"
+#include "depowder/tool.hpp"
 
 namespace depowder::perception {
 
@@ -26,9 +27,9 @@ struct MergerConfig {
 /// planner placing the nozzle relative to the tracked pose, an estimate pulled towards it can
 /// run away with it. Its pose comes from ROBOT_STATE (the state nearest each time step).
 struct SelfFilterConfig {
-  double radius = 0.0125;  ///< m, the nozzle body's radius (depowder-camera: planner.nozzle.radius)
-  double length = 0.25;    ///< m of body up its axis from the tip (depowder-camera: the planner's, up to
-                           ///< the flange at robot.tool_offset)
+  double radius = kNozzleRadius;  ///< m, the nozzle body's radius (depowder-camera: planner.nozzle.radius)
+  double length = 0.25;           ///< m of body up its axis from the tip (depowder-camera: the planner's, up to
+                                  ///< the flange at robot.tool_offset)
   /// The end effector's body: cylinders from the flange towards the tip, placed as the planner
   /// places them (effectorBodies); depowder-camera takes robot.effector's unless the section
   /// gives one.

@@ -5,14 +5,16 @@
 #include <Eigen/Core>
 #include <cstdint>
 
+#include "depowder/tool.hpp"
+
 namespace depowder::planner {
 
 /// The cleaning nozzle: a cylinder above its tip. Nozzle frame: tip at the origin, +z is the
 /// spray / suction direction (pointing down, -z of the cell, while vacuuming and blasting).
 struct NozzleConfig {
-  double radius = 0.0125;  ///< m (the nozzle is about 2.5 cm in diameter)
-  double length = 0.13;    ///< m of nozzle body above the tip
-  double margin = 0.0025;  ///< m added around the nozzle in every collision check
+  double radius = kNozzleRadius;  ///< m (the nozzle is about 2.5 cm in diameter)
+  double length = kNozzleLength;  ///< m of nozzle body above the tip
+  double margin = 0.0025;         ///< m added around the nozzle in every collision check
 };
 
 /// Phases 1-2 (paper Sec. III-B): a closed loop around the part that removes one powder layer.

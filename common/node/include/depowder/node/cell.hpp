@@ -8,6 +8,7 @@
 
 #include "depowder/geometry.hpp"
 #include "depowder/node/yaml.hpp"
+#include "depowder/tool.hpp"
 
 namespace depowder::node {
 
@@ -82,8 +83,8 @@ double cellModelId(const CellConfig& cell);
 /// that only draw or filter it (the viewer, the camera proxy's self-filter). The defaults are
 /// planner::NozzleConfig's and robot::ArmConfig's.
 struct ToolConfig {
-  double nozzle_radius = 0.0125;            ///< m, the nozzle tube (planner.nozzle.radius)
-  double tube_length = 0.13;                ///< m from the tip up its axis (planner.nozzle.length, grown to
+  double nozzle_radius = kNozzleRadius;     ///< m, the nozzle tube (planner.nozzle.radius)
+  double tube_length = kNozzleLength;       ///< m from the tip up its axis (planner.nozzle.length, grown to
                                             ///< robot.tool_offset's length as the planner grows it)
   Pose T_flange_nozzle = Pose::Identity();  ///< robot.tool_offset
   std::vector<EffectorSection> effector = vacuumEffector();  ///< from the flange (robot.effector), placed
