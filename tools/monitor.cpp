@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "depowder/clock.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
@@ -132,13 +133,13 @@ int main(int argc, char** argv) {
       p.has_pose = true;
       ++p.poses;
       pose_utimes[m.part].insert(m.utime);
-      pose_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
+      pose_latency_ms.push_back(secondsBetween(node::nowUtime(), m.utime) * 1e3);
     });
     bus.subscribe<progress_t>("PROGRESS", [&](const progress_t& m, const std::string&) {
       PartView& p = parts[m.part];
       p.progress = m;
       p.has_progress = true;
-      if (m.utime > 0) progress_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
+      if (m.utime > 0) progress_latency_ms.push_back(secondsBetween(node::nowUtime(), m.utime) * 1e3);
       if (m.phase == progress_t::PHASE_DONE && p.done_since == 0) p.done_since = node::nowUtime();
       if (m.phase != progress_t::PHASE_DONE) p.done_since = 0;
     });
@@ -169,7 +170,7 @@ int main(int argc, char** argv) {
       plan = m;
       ++plans;
       if (m.utime > 0) {
-        plan_latency_ms.push_back((node::nowUtime() - m.utime) * 1e-3);
+        plan_latency_ms.push_back(secondsBetween(node::nowUtime(), m.utime) * 1e3);
         if (m.reason.rfind("refresh: ", 0) != 0) new_plan_latency_ms.push_back(plan_latency_ms.back());
       }
     });

@@ -2,6 +2,7 @@
 // A thin adapter: decode, call the perception library, encode, publish, report health.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <deque>
 #include <iomanip>
@@ -11,6 +12,7 @@
 #include <thread>
 
 #include "camera_options.hpp"
+#include "depowder/clock.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/node/heartbeat.hpp"
@@ -106,7 +108,7 @@ class CameraNode {
     bus_.subscribe<depth_image_t>(options_.input, [this](const depth_image_t& msg, const std::string&) {
       const auto t0 = Clock::now();
       const std::int64_t arrival = nowUtime();
-      input_ms_.add((arrival - msg.utime) / 1000.0);
+      input_ms_.add(secondsBetween(arrival, msg.utime) * 1e3);  // any utime: the proxy checks it
       DepthImage image;
       PinholeCamera camera;
       FrameError e = fromMsg(msg, image, camera);
@@ -230,8 +232,7 @@ class CameraNode {
                                        : " silent for " + std::to_string(static_cast<int>(h.last_seen_age)) + " s");
         reason += "; ";
       } else if (h.stale) {
-        reason +=
-            "camera " + h.name + " stale (" + std::to_string(static_cast<int>(h.utime_lag * 1000)) + " ms behind); ";
+        reason += "camera " + h.name + " stale (" + std::to_string(std::llround(h.utime_lag * 1000)) + " ms behind); ";
       }
     }
     for (const auto& [name, a] : proxy_.agreement()) {

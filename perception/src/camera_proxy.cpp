@@ -15,9 +15,6 @@ std::int64_t ProxyCounters::dropped() const {
 
 namespace {
 
-/// Whether the proxy takes a frame or a nozzle pose stamped `utime` (CameraProxy::kMaxUtime).
-bool utimeTaken(std::int64_t utime) { return utime >= 0 && utime <= CameraProxy::kMaxUtime; }
-
 /// The tool at the nozzle's pose, as the self-filter removes it: the tube up from the tip and the
 /// end effector's cylinders from the flange (effectorBodies), each grown by the margin.
 class ToolVolume {
@@ -98,7 +95,7 @@ void CameraProxy::reject(const FrameError& error) {
 FrameError CameraProxy::accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime,
                                std::int64_t arrival) {
   FrameError result = cloud.error;
-  if (result.ok() && !utimeTaken(utime))
+  if (result.ok() && !utimeInRange(utime))
     result = {FrameStatus::kBadHeader,
               "camera '" + camera + "': utime " + std::to_string(utime) + " us is outside 0 to 2^53 us"};
   if (result.ok()) result = merger_.add(CameraFrame{camera, utime, std::move(cloud.points)}, arrival);
@@ -113,7 +110,7 @@ std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {
 }
 
 void CameraProxy::addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle) {
-  if (!utimeTaken(utime)) return;
+  if (!utimeInRange(utime)) return;
   if (!nozzle_poses_.empty() && clockWentBack(nozzle_poses_.back().first, utime)) nozzle_poses_.clear();
   if (!nozzle_poses_.empty() && utime <= nozzle_poses_.back().first) return;
   nozzle_poses_.emplace_back(utime, T_cell_nozzle);

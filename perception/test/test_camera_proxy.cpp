@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <random>
 
+#include "depowder/clock.hpp"
 #include "depowder/perception/camera_proxy.hpp"
 #include "depowder/point_grid.hpp"
 #include "depowder/stats.hpp"
@@ -140,7 +141,7 @@ TEST(CameraProxy, FramesAndPosesStampedOutsideTheUtimesTakenAreRefused) {
   cfg.self_filter.margin = 0.005;
   CameraProxy proxy(cfg, kBox, {"LEFT"});
   const Pose T_cell_nozzle = nozzleInTheSphere();
-  for (const std::int64_t utime : {std::int64_t{-1}, CameraProxy::kMaxUtime + 1, INT64_MIN, INT64_MAX}) {
+  for (const std::int64_t utime : {std::int64_t{-1}, kMaxUtime + 1, INT64_MIN, INT64_MAX}) {
     const FrameError e = proxy.addDepth(render(s, rig[0], utime), rig[0], kT0);
     EXPECT_EQ(e.status, FrameStatus::kBadHeader);
     EXPECT_NE(e.message.find("utime " + std::to_string(utime)), std::string::npos) << e.message;

@@ -56,6 +56,12 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 double seconds(std::int64_t us) { return static_cast<double>(us) * 1e-6; }
 
+/// An input stamped outside the utimes taken (depowder/clock.hpp): every time the planner keeps is
+/// a difference of two of them.
+InputResult outOfRange(const std::string& what, std::int64_t utime) {
+  return {InputStatus::kInvalidValue, what + " has utime " + std::to_string(utime) + " us, outside 0 to 2^53 us"};
+}
+
 }  // namespace
 
 CellPlanner::CellPlanner(std::vector<PartSpec> parts, const Box& box, std::shared_ptr<const robot::ArmConfig> arm,
@@ -98,6 +104,7 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
   if (!isValidPose(in.T_cell_part, 1e-6))
     return {InputStatus::kInvalidPose,
             "PART_POSE of " + in.part + " is not a valid rigid transform (NaN or not orthonormal)"};
+  if (!utimeInRange(in.utime)) return outOfRange("PART_POSE of " + in.part, in.utime);
   const std::string restart = restartIfClockWentBack("PART_POSE", in.part, in.utime);
   PartState& s = states_[i];
   if (s.pose && in.utime < s.pose->utime)
@@ -126,6 +133,7 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   if (!std::isfinite(in.eta) || (in.status == ProgressStatus::kOk &&
                                  (!std::isfinite(in.h_pow) || !std::isfinite(in.h_max) || !std::isfinite(in.h_min))))
     return {InputStatus::kInvalidValue, "PROGRESS of " + in.part + " has a non-finite eta or height"};
+  if (!utimeInRange(in.utime)) return outOfRange("PROGRESS of " + in.part, in.utime);
   const int phase = static_cast<int>(in.phase);
   if (phase < 1 || phase > 4)
     return {InputStatus::kInvalidValue, "PROGRESS of " + in.part + " has phase " + std::to_string(phase) + " (1..4)"};
@@ -149,6 +157,7 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
 InputResult CellPlanner::onRobot(const RobotInput& in) {
   for (double v : in.q)
     if (!std::isfinite(v)) return {InputStatus::kInvalidValue, "ROBOT_STATE has non-finite joints"};
+  if (!utimeInRange(in.utime)) return outOfRange("ROBOT_STATE", in.utime);
   if (robot_ && cycle_end_robot_utime_ >= 0 && clockWentBack(robot_->utime, in.utime))
     cycle_end_robot_utime_ = in.utime;
   robot_ = in;

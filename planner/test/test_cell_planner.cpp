@@ -484,6 +484,16 @@ TEST_F(CellTest, BadMessagesGiveAStatusAndNoPlan) {
   EXPECT_EQ(planner->onProgress(nan).status, InputStatus::kInvalidValue);
   EXPECT_EQ(planner->onPose(PoseInput{"nope", utime, Pose::Identity(), TrackStatus::kTracking, ""}).status,
             InputStatus::kUnknownPart);
+  // Stamped outside 0 to 2^53 us (depowder/clock.hpp): every time the planner keeps is a difference.
+  for (const std::int64_t u : {std::int64_t{-1}, INT64_MIN, INT64_MAX}) {
+    const InputResult far = planner->onPose({"left", u, T_left, TrackStatus::kTracking, ""});
+    EXPECT_EQ(far.status, InputStatus::kInvalidValue);
+    EXPECT_NE(far.reason.find("utime " + std::to_string(u) + " us, outside 0 to 2^53 us"), std::string::npos)
+        << far.reason;
+    RobotInput state;
+    state.utime = u;
+    EXPECT_EQ(planner->onRobot(state).status, InputStatus::kInvalidValue);
+  }
   // Nothing valid arrived: a hold without waypoints, once.
   auto p = planner->step();
   ASSERT_TRUE(p);

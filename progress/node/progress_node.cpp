@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "depowder/clock.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/node/convert.hpp"
 
@@ -153,6 +154,10 @@ void ProgressNode::flush(Frame& frame, std::vector<progress_t>& out) {
 std::vector<progress_t> ProgressNode::onPoints(std::int64_t utime, Cloud cloud, std::int64_t now_us) {
   ++stats_.frames;
   std::vector<progress_t> out;
+  if (!utimeInRange(utime)) {
+    stats_.last_problem = "POINTS with utime " + std::to_string(utime) + " us, outside 0 to 2^53 us: not used";
+    return out;
+  }
   Frame frame{utime, now_us, std::move(cloud), {}};
   // A pose for this utime may already be here (the tracker was faster than our POINTS delivery).
   for (auto& [name, part] : parts_)
@@ -176,7 +181,11 @@ std::vector<progress_t> ProgressNode::onPose(const part_pose_t& msg) {
   }
   Part& part = it->second;
   std::string why;
-  const std::optional<Pose> pose = node::fromMsg(msg.T_cell_part, &why);
+  std::optional<Pose> pose = node::fromMsg(msg.T_cell_part, &why);
+  if (pose && !utimeInRange(msg.utime)) {
+    pose.reset();
+    why = "utime " + std::to_string(msg.utime) + " us is outside 0 to 2^53 us";
+  }
   if (!pose) {
     ++stats_.invalid_poses;
     stats_.last_problem = "invalid PART_POSE for '" + msg.part + "': " + why;
@@ -198,7 +207,7 @@ std::vector<progress_t> ProgressNode::onPose(const part_pose_t& msg) {
 
 void ProgressNode::onPlan(const nozzle_plan_t& msg) {
   const auto it = parts_.find(msg.part);
-  if (it == parts_.end()) return;
+  if (it == parts_.end() || !utimeInRange(msg.utime)) return;
   bool air = msg.phase == progress_t::PHASE_AIR_BLAST;
   for (const waypoint_t& w : msg.waypoints) air = air || w.tool == waypoint_t::TOOL_AIR;
   if (air) it->second.phase.airBlastStarted(msg.utime);

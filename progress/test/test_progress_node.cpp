@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "depowder/clock.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
 #include "progress_node.hpp"
@@ -151,6 +152,17 @@ TEST_F(NodeTest, BadInputsAreCountedAndReported) {
   EXPECT_EQ(out[0].status, +progress_t::NO_CONTOUR);
   EXPECT_DOUBLE_EQ(out[0].eta, held);
   EXPECT_TRUE(std::isnan(out[0].eta_raw));
+
+  // Stamped outside 0 to 2^53 us (depowder/clock.hpp): a pose is invalid, a frame not used.
+  const std::int64_t invalid = n.stats().invalid_poses;
+  for (const std::int64_t utime : {std::int64_t{-1}, kMaxUtime + 1, INT64_MIN, INT64_MAX}) {
+    EXPECT_TRUE(n.onPose(poseMsg(utime, kInit)).empty());
+    EXPECT_NE(n.stats().last_problem.find("utime " + std::to_string(utime)), std::string::npos)
+        << n.stats().last_problem;
+    EXPECT_TRUE(n.onPoints(utime, cubeScene(0.05), 0).empty());
+  }
+  EXPECT_EQ(n.stats().invalid_poses, invalid + 4);
+  EXPECT_TRUE(n.poll(10'000'000).empty());
 }
 
 TEST_F(NodeTest, AirBlastPassLeadsToDone) {

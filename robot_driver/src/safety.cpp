@@ -6,6 +6,7 @@
 #include <iterator>
 #include <string>
 
+#include "depowder/clock.hpp"
 #include "depowder/digest.hpp"
 
 namespace depowder::robot {
@@ -74,7 +75,7 @@ SafetyVerdict checkNewPlan(const SafetyConfig& cfg, std::int64_t now_utime, std:
                            double heartbeat_age_s) {
   SafetyVerdict v;
   char buf[256];
-  const double age = static_cast<double>(now_utime - plan_utime) * 1e-6;
+  const double age = secondsBetween(now_utime, plan_utime);
   if (plan_utime <= 0) {
     v.stop = StopReason::PlanStale;
     v.reason = "plan has no source frame time (utime " + std::to_string(plan_utime) + ")";

@@ -50,6 +50,10 @@ TEST(CheckNewPlan, AgeAgainstThisHostsClock) {
   EXPECT_EQ(ahead.stop, StopReason::ClockAhead);
   EXPECT_NE(ahead.reason.find("0.300 s ahead of this host's clock (limit 0.250 s)"), std::string::npos) << ahead.reason;
   EXPECT_EQ(checkNewPlan(c, now, 0, 0.1).stop, StopReason::PlanStale);  // no source time
+  // Any utime a NOZZLE_PLAN may carry: its age is taken without overflow (UBSan's check).
+  EXPECT_EQ(checkNewPlan(c, now, INT64_MIN, 0.1).stop, StopReason::PlanStale);
+  EXPECT_EQ(checkNewPlan(c, now, INT64_MAX, 0.1).stop, StopReason::ClockAhead);
+  EXPECT_EQ(checkNewPlan(c, INT64_MIN, INT64_MAX, 0.1).stop, StopReason::ClockAhead);
   EXPECT_EQ(checkNewPlan(c, now, now, 1.1).stop, StopReason::HeartbeatLost);
 }
 

@@ -13,6 +13,12 @@
 
 namespace depowder {
 
+/// The utimes the processes take, us since the epoch: 0 to 2^53 (the year 2255), where any two
+/// differ by an int64 and a double holds each to the microsecond. A message stamped outside is
+/// refused (or ignored) by the process that orders or times by it, saying so.
+inline constexpr std::int64_t kMaxUtime = std::int64_t{1} << 53;
+inline bool utimeInRange(std::int64_t utime) { return utime >= 0 && utime <= kMaxUtime; }
+
 /// us a utime must be behind the newest one taken to count as the clock going back: far more
 /// than any lateness (the camera proxy waits 40 ms for a time step, the planner holds on a pose
 /// 1 s behind), far less than a log played again.
@@ -21,6 +27,12 @@ inline constexpr std::int64_t kClockJumpBack = 2'000'000;
 /// How far `utime` is behind `newest`, us, as an unsigned difference: no int64 pair overflows it.
 inline std::uint64_t behind(std::int64_t newest, std::int64_t utime) {
   return utime < newest ? static_cast<std::uint64_t>(newest) - static_cast<std::uint64_t>(utime) : 0;
+}
+
+/// `later` - `earlier` in seconds, for ages and latencies: no int64 pair overflows it (a message's
+/// utime is whatever the bus brought), and it is exact to the microsecond up to 2^53 us.
+inline double secondsBetween(std::int64_t later, std::int64_t earlier) {
+  return (static_cast<double>(later) - static_cast<double>(earlier)) * 1e-6;
 }
 
 /// Whether `utime` is more than kClockJumpBack behind `newest`.

@@ -53,11 +53,8 @@ class CameraProxy {
   CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& box_size,
               std::vector<std::string> known_cameras = {});
 
-  /// The utimes the proxy takes, us: 0 to 2^53 (the year 2255), so that any two differ by an
-  /// int64. A frame stamped outside is refused (kBadHeader), a nozzle pose ignored.
-  static constexpr std::int64_t kMaxUtime = std::int64_t{1} << 53;
-
-  /// A depth frame of `camera`, arrived at wall-clock `arrival` (us).
+  /// A depth frame of `camera`, arrived at wall-clock `arrival` (us). One stamped outside 0 to
+  /// 2^53 us (kMaxUtime, depowder/clock.hpp) is refused (kBadHeader); addNozzlePose ignores a pose stamped so.
   FrameError addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival);
 
   /// A recorded scan: camera-frame points captured at `utime` by `camera` (pose and range used).
