@@ -96,8 +96,7 @@ FrameError CameraProxy::accept(CameraCloud&& cloud, const std::string& camera, s
                                std::int64_t arrival) {
   FrameError result = cloud.error;
   if (result.ok() && !utimeInRange(utime))
-    result = {FrameStatus::kBadHeader,
-              "camera '" + camera + "': utime " + std::to_string(utime) + " us is outside 0 to 2^53 us"};
+    result = {FrameStatus::kBadHeader, "camera '" + camera + "': " + utimeOutOfRange(utime)};
   if (result.ok()) result = merger_.add(CameraFrame{camera, utime, std::move(cloud.points)}, arrival);
   reject(result);
   return result;

@@ -59,7 +59,7 @@ double seconds(std::int64_t us) { return static_cast<double>(us) * 1e-6; }
 /// An input stamped outside the utimes taken (depowder/clock.hpp): every time the planner keeps is
 /// a difference of two of them.
 InputResult outOfRange(const std::string& what, std::int64_t utime) {
-  return {InputStatus::kInvalidValue, what + " has utime " + std::to_string(utime) + " us, outside 0 to 2^53 us"};
+  return {InputStatus::kInvalidValue, what + " has " + utimeOutOfRange(utime)};
 }
 
 }  // namespace

@@ -155,7 +155,7 @@ std::vector<progress_t> ProgressNode::onPoints(std::int64_t utime, Cloud cloud, 
   ++stats_.frames;
   std::vector<progress_t> out;
   if (!utimeInRange(utime)) {
-    stats_.last_problem = "POINTS with utime " + std::to_string(utime) + " us, outside 0 to 2^53 us: not used";
+    stats_.last_problem = "POINTS with " + utimeOutOfRange(utime) + ": not used";
     return out;
   }
   Frame frame{utime, now_us, std::move(cloud), {}};
@@ -184,7 +184,7 @@ std::vector<progress_t> ProgressNode::onPose(const part_pose_t& msg) {
   std::optional<Pose> pose = node::fromMsg(msg.T_cell_part, &why);
   if (pose && !utimeInRange(msg.utime)) {
     pose.reset();
-    why = "utime " + std::to_string(msg.utime) + " us is outside 0 to 2^53 us";
+    why = utimeOutOfRange(msg.utime);
   }
   if (!pose) {
     ++stats_.invalid_poses;

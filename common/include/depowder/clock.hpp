@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 namespace depowder {
 
@@ -18,6 +19,10 @@ namespace depowder {
 /// refused (or ignored) by the process that orders or times by it, saying so.
 inline constexpr std::int64_t kMaxUtime = std::int64_t{1} << 53;
 inline bool utimeInRange(std::int64_t utime) { return utime >= 0 && utime <= kMaxUtime; }
+/// What is wrong with a utime outside them, for the refusal's message.
+inline std::string utimeOutOfRange(std::int64_t utime) {
+  return "utime " + std::to_string(utime) + " us, outside 0 to 2^53 us";
+}
 
 /// us a utime must be behind the newest one taken to count as the clock going back: far more
 /// than any lateness (the camera proxy waits 40 ms for a time step, the planner holds on a pose
