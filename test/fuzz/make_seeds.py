@@ -4,6 +4,7 @@
 Uses lcm-gen's Python types of lcmtypes/ (generated into a temporary folder; no LCM Python
 module needed). Run from anywhere: python3 test/fuzz/make_seeds.py
 """
+import math
 import os
 import struct
 import subprocess
@@ -56,7 +57,11 @@ rs.T_cell_nozzle, rs.tool, rs.plan_id, rs.waypoint_index, rs.plan_utime = pose((
 pr = progress_t()
 pr.utime, pr.part, pr.phase, pr.status, pr.status_reason = 1000, "cube", 2, 0, ""
 pr.eta, pr.eta_raw, pr.h_pow, pr.h_max, pr.h_min, pr.T_cell_part = 0.6, 0.6, 0.04, 0.06, 0.0, pose((0, 0, 0.03))
-pr.num_contour, pr.contour, pr.num_band, pr.band = 2, [[0.02, 0, 0.04], [-0.02, 0, 0.04]], 0, []
+# The contour (Eq. 2): eight points 5 cm round the cube at the powder's height. A PROGRESS that
+# says OK needs three at least, or the planner refuses it and plans nothing.
+pr.contour = [[round(0.05 * math.cos(k * math.pi / 4), 4), round(0.05 * math.sin(k * math.pi / 4), 4), 0.04]
+              for k in range(8)]
+pr.num_contour, pr.num_band, pr.band = len(pr.contour), 0, []
 
 # fuzz_lcm: [type byte][message], the type byte as fuzz_lcm.cpp's table orders them.
 for kind, name, msg in [(0, "point_cloud", c), (1, "depth_image", d), (2, "part_pose", pp), (4, "robot_state", rs),
