@@ -137,9 +137,18 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   const int phase = static_cast<int>(in.phase);
   if (phase < 1 || phase > 4)
     return {InputStatus::kInvalidValue, "PROGRESS of " + in.part + " has phase " + std::to_string(phase) + " (1..4)"};
-  for (const Point& p : in.contour)
+  // The contour lies on the powder in the build box (cell origin at the centre of its floor); a
+  // point beyond its walls is no contour, and one kilometres away would make the loop's length.
+  const Box& box = world_->box();
+  for (const Point& p : in.contour) {
     if (!p.allFinite())
       return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " has a non-finite contour point"};
+    if (std::abs(p.x()) > 0.5 * box.size.x() + box.wall || std::abs(p.y()) > 0.5 * box.size.y() + box.wall) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, " has a contour point at x %.3g, y %.3g m, outside the build box", p.x(), p.y());
+      return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + buf};
+    }
+  }
   if (in.status == ProgressStatus::kOk && in.contour.size() < 3)
     return {InputStatus::kInvalidContour,
             "PROGRESS of " + in.part + " says OK but its contour has " + std::to_string(in.contour.size()) + " points"};

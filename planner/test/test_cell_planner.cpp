@@ -482,6 +482,15 @@ TEST_F(CellTest, BadMessagesGiveAStatusAndNoPlan) {
   nan.status = ProgressStatus::kNoContour;
   nan.eta = std::nan("");
   EXPECT_EQ(planner->onProgress(nan).status, InputStatus::kInvalidValue);
+  // A contour point beyond the box's walls: 5e10 m away it made the loop's resampling count
+  // overflow an int (fuzz_nodes, test/fuzz/found/nodes).
+  for (const Point& far : {Point(5e10, 0, 0.05), Point(0, 10, 0.05)}) {
+    ProgressInput outside = empty;
+    outside.contour = {Point(0.05, 0, 0.05), Point(0, 0.05, 0.05), far};
+    const InputResult o = planner->onProgress(outside);
+    EXPECT_EQ(o.status, InputStatus::kInvalidContour);
+    EXPECT_NE(o.reason.find("outside the build box"), std::string::npos) << o.reason;
+  }
   EXPECT_EQ(planner->onPose(PoseInput{"nope", utime, Pose::Identity(), TrackStatus::kTracking, ""}).status,
             InputStatus::kUnknownPart);
   // Stamped outside 0 to 2^53 us (depowder/clock.hpp): every time the planner keeps is a difference.
