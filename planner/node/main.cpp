@@ -44,15 +44,14 @@ int main(int argc, char** argv) {
     node::Heartbeat heartbeat(bus, "depowder-planner", options.heartbeat_period);
     heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
     heartbeat.setStat("arm_model", options.arm_model);         // the driver moves only an arm it shares
-    std::string last_rejection;                                // printed once per distinct reason, counted always
+    // A rejection, or a note on an input taken (the clock went back, contour points left out):
+    // printed once per distinct reason, rejections counted always.
+    std::string last_said;
     auto report = [&](const planner::InputResult& r) {
-      if (r.ok()) {
-        if (!r.reason.empty()) std::cerr << "depowder-planner: " << r.reason << std::endl;  // e.g. the clock went back
-        return;
-      }
-      heartbeat.addDropped();
-      if (r.reason != last_rejection) std::cerr << "depowder-planner: rejected: " << r.reason << std::endl;
-      last_rejection = r.reason;
+      if (!r.ok()) heartbeat.addDropped();
+      if (r.reason.empty() || r.reason == last_said) return;
+      std::cerr << "depowder-planner: " << (r.ok() ? "" : "rejected: ") << r.reason << std::endl;
+      last_said = r.reason;
     };
     bus.subscribe<part_pose_t>("PART_POSE", [&](const part_pose_t& m, const std::string&) { report(logic.onPose(m)); });
     bus.subscribe<progress_t>("PROGRESS",

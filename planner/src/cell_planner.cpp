@@ -137,30 +137,34 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   const int phase = static_cast<int>(in.phase);
   if (phase < 1 || phase > 4)
     return {InputStatus::kInvalidValue, "PROGRESS of " + in.part + " has phase " + std::to_string(phase) + " (1..4)"};
-  // The contour lies on the powder in the build box (cell origin at the centre of its floor); a
-  // point beyond its walls is no contour, and one kilometres away would make the loop's length.
+  // The contour lies on the powder in the build box (cell origin at the centre of its floor). A
+  // point beyond its walls is no powder round the part (a wall's top in a crop wider than the
+  // box, or a corrupt value: one 5e10 m away overflowed the loop's resampling): left out.
   const Box& box = world_->box();
+  ProgressInput kept = in;
+  kept.contour.clear();
   for (const Point& p : in.contour) {
     if (!p.allFinite())
       return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " has a non-finite contour point"};
-    if (std::abs(p.x()) > 0.5 * box.size.x() + box.wall || std::abs(p.y()) > 0.5 * box.size.y() + box.wall) {
-      char buf[160];
-      std::snprintf(buf, sizeof buf, " has a contour point at x %.3g, y %.3g m, outside the build box", p.x(), p.y());
-      return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + buf};
-    }
+    if (std::abs(p.x()) <= 0.5 * box.size.x() + box.wall && std::abs(p.y()) <= 0.5 * box.size.y() + box.wall)
+      kept.contour.push_back(p);
   }
-  if (in.status == ProgressStatus::kOk && in.contour.size() < 3)
-    return {InputStatus::kInvalidContour,
-            "PROGRESS of " + in.part + " says OK but its contour has " + std::to_string(in.contour.size()) + " points"};
-  const std::string restart = restartIfClockWentBack("PROGRESS", in.part, in.utime);
+  const bool left_out = kept.contour.size() < in.contour.size();
+  const std::string outside = "contour points beyond the build box's walls left out";
+  if (in.status == ProgressStatus::kOk && kept.contour.size() < 3)
+    return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " says OK but its contour has " +
+                                              std::to_string(kept.contour.size()) + " points" +
+                                              (left_out ? " (" + outside + ")" : "")};
+  std::string note = restartIfClockWentBack("PROGRESS", in.part, in.utime);
   PartState& s = states_[i];
   if (s.progress && in.utime < s.progress->utime)
     return {InputStatus::kOutOfOrder, "PROGRESS of " + in.part + " is older than the last one"};
-  s.progress = in;
+  s.progress = std::move(kept);
   if (in.status == ProgressStatus::kOk) s.powder = in.h_pow;
   newest_utime_ = std::max(newest_utime_, in.utime);
   newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
-  return {InputStatus::kAccepted, restart};
+  if (left_out) note += (note.empty() ? "" : "; ") + ("PROGRESS of " + in.part + ": " + outside);
+  return {InputStatus::kAccepted, note};
 }
 
 InputResult CellPlanner::onRobot(const RobotInput& in) {
