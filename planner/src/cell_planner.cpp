@@ -141,25 +141,26 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   // point beyond its walls is no powder round the part (a wall's top in a crop wider than the
   // box, or a corrupt value: one 5e10 m away overflowed the loop's resampling): left out.
   const Box& box = world_->box();
-  ProgressInput kept = in;
-  kept.contour.clear();
+  Cloud inside;
+  inside.reserve(in.contour.size());
   for (const Point& p : in.contour) {
     if (!p.allFinite())
       return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " has a non-finite contour point"};
     if (std::abs(p.x()) <= 0.5 * box.size.x() + box.wall && std::abs(p.y()) <= 0.5 * box.size.y() + box.wall)
-      kept.contour.push_back(p);
+      inside.push_back(p);
   }
-  const bool left_out = kept.contour.size() < in.contour.size();
+  const bool left_out = inside.size() < in.contour.size();
   const std::string outside = "contour points beyond the build box's walls left out";
-  if (in.status == ProgressStatus::kOk && kept.contour.size() < 3)
+  if (in.status == ProgressStatus::kOk && inside.size() < 3)
     return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " says OK but its contour has " +
-                                              std::to_string(kept.contour.size()) + " points" +
+                                              std::to_string(inside.size()) + " points" +
                                               (left_out ? " (" + outside + ")" : "")};
   std::string note = restartIfClockWentBack("PROGRESS", in.part, in.utime);
   PartState& s = states_[i];
   if (s.progress && in.utime < s.progress->utime)
     return {InputStatus::kOutOfOrder, "PROGRESS of " + in.part + " is older than the last one"};
-  s.progress = std::move(kept);
+  s.progress = in;
+  s.progress->contour = std::move(inside);
   if (in.status == ProgressStatus::kOk) s.powder = in.h_pow;
   newest_utime_ = std::max(newest_utime_, in.utime);
   newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
