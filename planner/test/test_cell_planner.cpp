@@ -38,6 +38,10 @@ class CellTest : public ::testing::Test {
     p.T_cell_part = T;
     p.status = track;
     EXPECT_TRUE(planner->onPose(p).ok());
+    EXPECT_TRUE(planner->onProgress(progress(part, T, phase, powder)).ok());
+  }
+  /// The progress estimator's output for a part at pose T with powder at `powder`.
+  ProgressInput progress(const std::string& part, const Pose& T, Phase phase, double powder) const {
     ProgressInput g;
     g.part = part;
     g.utime = utime;
@@ -47,7 +51,7 @@ class CellTest : public ::testing::Test {
     g.h_min = T.translation().z() - 0.03;
     g.eta = (g.h_max - powder) / 0.06;
     g.contour = test::syntheticContour(transformed(cube, T), powder);
-    EXPECT_TRUE(planner->onProgress(g).ok());
+    return g;
   }
   void robotAt(const Plan& plan, int index) {
     RobotInput r;
@@ -468,15 +472,7 @@ TEST_F(CellTest, TheFramesClockGoingBackStartsThePlanningOver) {
 TEST_F(CellTest, AContourPointBeyondTheBoxIsLeftOut) {
   frame("right", T_right, Phase::kVacuumTracked, 0.04);
   ASSERT_TRUE(planner->onPose({"left", utime, T_left, TrackStatus::kTracking, ""}).ok());
-  ProgressInput g;
-  g.part = "left";
-  g.utime = utime;
-  g.phase = Phase::kVacuumTracked;
-  g.h_pow = 0.04;
-  g.h_max = T_left.translation().z() + 0.03;
-  g.h_min = T_left.translation().z() - 0.03;
-  g.eta = (g.h_max - g.h_pow) / 0.06;
-  g.contour = test::syntheticContour(transformed(cube, T_left), g.h_pow);
+  ProgressInput g = progress("left", T_left, Phase::kVacuumTracked, 0.04);
   g.contour.insert(g.contour.begin() + 3, Point(5e10, 0, 0.04));
   g.contour.push_back(Point(0, -10, 0.04));
   const InputResult r = planner->onProgress(g);
