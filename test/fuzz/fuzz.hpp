@@ -1,4 +1,5 @@
-// What the fuzz targets share: decoding an LCM message from the input, and the input as a file.
+// What the fuzz targets share: decoding an LCM message from the input, the input as a file, and
+// a mutation of the times of its messages.
 #pragma once
 
 #include <unistd.h>
@@ -8,7 +9,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <random>
 #include <string>
+#include <vector>
 
 namespace depowder::fuzz {
 
@@ -30,6 +34,39 @@ void forEachRecord(const std::uint8_t* data, std::size_t size, int kinds, F&& f)
     f(kind, data + 3, n);
     data += 3 + n, size -= 3 + n;
   }
+}
+
+/// Sets the utime of one message of an input of records (forEachRecord) to a time that stresses
+/// a node's clock: INT64_MIN, INT64_MAX, 0 or -1, its own with one bit flipped or moved 2^k us
+/// either way, or another message's time or just before it. Every LCM message the record targets
+/// take starts with its int64 utime, big-endian after the 8-byte type fingerprint. False, and the
+/// input unchanged, if no message is long enough to hold one. The arithmetic is on the unsigned
+/// value: the wrap-around is the point.
+inline bool mutateUtime(std::uint8_t* data, std::size_t size, unsigned seed) {
+  std::vector<std::uint8_t*> utimes;
+  forEachRecord(data, size, 1, [&](int, const std::uint8_t* msg, std::size_t n) {
+    if (n >= 16) utimes.push_back(const_cast<std::uint8_t*>(msg) + 8);
+  });
+  if (utimes.empty()) return false;
+  const auto read = [](const std::uint8_t* p) {
+    std::uint64_t v = 0;
+    for (int i = 0; i < 8; ++i) v = v << 8 | p[i];
+    return v;
+  };
+  std::minstd_rand rng(seed);
+  std::uint8_t* at = utimes[rng() % utimes.size()];
+  const std::uint64_t now = read(at);
+  const std::uint64_t other = read(utimes[rng() % utimes.size()]);
+  const std::uint64_t bit = std::uint64_t{1} << rng() % 64;
+  const std::uint64_t int64_min = std::uint64_t{1} << 63;
+  const std::uint64_t choices[] = {
+      int64_min, int64_min - 1, 0,         ~std::uint64_t{0},  // INT64_MIN, INT64_MAX, 0, -1
+      now ^ bit, now + bit,     now - bit,                     // a bit flipped, a jump of 2^k us
+      other,     other - 1,                                    // another message's time, or just before
+  };
+  std::uint64_t v = choices[rng() % std::size(choices)];
+  for (int i = 7; i >= 0; --i, v >>= 8) at[i] = static_cast<std::uint8_t>(v);
+  return true;
 }
 
 /// The bytes as a file of the temp directory named by `extension` (what picks the reader),
