@@ -32,10 +32,13 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // Health first: a camera whose frames are all late is stale, not silent.
   Camera& cam = cameras_[frame.camera];
   cam.last_arrival = arrival;
-  cam.back_utime.reset();
   if (clockWentBack(released_utime_, frame.utime)) {
+    ++cam.back_frames;
     cam.back_utime = frame.utime;
     restartIfClockWentBack(arrival);  // else late, as from a camera whose clock runs behind the others'
+  } else {
+    cam.back_frames = 0;
+    cam.back_utime = 0;
   }
   cam.last_utime = std::max(cam.last_utime, frame.utime);
   newest_utime_ = std::max(newest_utime_, frame.utime);
@@ -80,11 +83,14 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
 
 void FrameMerger::restartIfClockWentBack(std::int64_t arrival) {
   std::int64_t newest_back = INT64_MIN;
+  int back_frames = 0;
   for (const auto& [name, c] : cameras_) {
     const bool heard = c.last_arrival > 0 && arrival - c.last_arrival <= micros(config_.silent_after);
-    if (heard && !c.back_utime) return;
-    if (c.back_utime) newest_back = std::max(newest_back, *c.back_utime);
+    if (heard && c.back_frames == 0) return;
+    if (c.back_frames > 0) newest_back = std::max(newest_back, c.back_utime);
+    back_frames += c.back_frames;
   }
+  if (back_frames < 2) return;
   char buf[200];
   std::snprintf(buf, sizeof buf,
                 "every camera's frames went back %.1f s behind the last time step published (a log played again, "
@@ -97,8 +103,9 @@ void FrameMerger::restartIfClockWentBack(std::int64_t arrival) {
   released_utime_ = INT64_MIN;
   newest_utime_ = newest_back;
   for (auto& [name, c] : cameras_) {
-    c.last_utime = c.back_utime.value_or(0);
-    c.back_utime.reset();
+    c.last_utime = c.back_utime;
+    c.back_frames = 0;
+    c.back_utime = 0;
   }
 }
 

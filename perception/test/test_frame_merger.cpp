@@ -203,3 +203,33 @@ TEST(FrameMerger, EveryCameraGoingBackStartsTheTimeStepsOver) {
     EXPECT_EQ(h.utime_lag, 0) << h.name;
   }
 }
+
+TEST(FrameMerger, OneFarPastFrameOfTheOnlyCameraIsABadStampTwoAreARestart) {
+  // A one-camera cell: one frame stamped 60 s in the past between good ones is refused as late
+  // and changes nothing; two in a row are the clock going back, and the second starts over.
+  FrameMerger m(config(), {"LEFT"});
+  std::int64_t now = kT0;
+  const auto step = [&](std::int64_t utime) {
+    const FrameError e = m.add(frame("LEFT", utime), now);
+    m.poll(now);
+    now += 33 * kMs;
+    return e;
+  };
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(step(now).ok());
+  EXPECT_EQ(step(now - 60000 * kMs).status, FrameStatus::kLate);
+  EXPECT_EQ(m.restarts(), 0);
+  ASSERT_TRUE(step(now).ok());  // the next good frame goes out as before
+  EXPECT_EQ(m.health(now).front().utime_lag, 0);
+
+  const std::int64_t back = now - 60000 * kMs;
+  EXPECT_EQ(step(back).status, FrameStatus::kLate);
+  EXPECT_EQ(m.restarts(), 0);
+  ASSERT_TRUE(step(back + 33 * kMs).ok());  // the second, 59.9 s behind: the new clock's first time step
+  EXPECT_EQ(m.restarts(), 1);
+  EXPECT_NE(m.lastRestart().find("went back 59.9 s"), std::string::npos) << m.lastRestart();
+  const FrameError next = m.add(frame("LEFT", back + 66 * kMs), now);
+  EXPECT_TRUE(next.ok()) << next.message;
+  const auto out = m.poll(now);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].utime, back + 66 * kMs);
+}

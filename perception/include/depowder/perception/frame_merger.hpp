@@ -14,7 +14,6 @@
 
 #include <cstdint>
 #include <map>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -83,13 +82,15 @@ class FrameMerger {
     std::int64_t frames = 0;        ///< accepted
     std::int64_t last_arrival = 0;  ///< 0 = never
     std::int64_t last_utime = 0;
-    std::optional<std::int64_t> back_utime;  ///< its newest frame, if far behind the last time step published
+    int back_frames = 0;          ///< its frames in a row far behind the last time step published...
+    std::int64_t back_utime = 0;  ///< ...the newest of them (0 if none)
   };
   /// Waited for: seen within silent_after and not stale.
   bool expected(const Camera& c, std::int64_t now) const;
   bool stale(const Camera& c) const;
   MergedFrame release(Group&& group, std::int64_t now) const;
-  /// Starts over if every camera heard within silent_after has gone back.
+  /// Starts over if every camera heard within silent_after has gone back, by two frames in all at
+  /// least: one frame alone from the only camera heard is a bad stamp until another confirms it.
   void restartIfClockWentBack(std::int64_t arrival);
 
   MergerConfig config_;
