@@ -2,7 +2,8 @@
 // fuzz_camera): one mutation in four sets one message's utime (fuzz::mutateUtime), the others are
 // libFuzzer's own. A fault that needs those 8 bytes set just so (INT64_MIN, the top bit flipped)
 // was out of reach of byte-level mutation: 25 minutes of fuzz_nodes did not find the planner's
-// old overflow at a pose stamped INT64_MIN. Linked into the libFuzzer build only.
+// old overflow at a pose stamped INT64_MIN (its check taken out); with this mutation three 300 s
+// runs found it, in 38 to 58 s (README, Building by hand). Linked into the libFuzzer build only.
 #include "fuzz.hpp"
 
 extern "C" std::size_t LLVMFuzzerMutate(std::uint8_t* data, std::size_t size, std::size_t max_size);
