@@ -10,6 +10,7 @@
 
 #include "depowder/part_pose_t.hpp"
 #include "depowder/robot_state_t.hpp"
+#include "depowder/test_messages.hpp"
 #include "fuzz.hpp"
 
 using namespace depowder;
@@ -17,9 +18,8 @@ using namespace depowder;
 namespace {
 
 template <class T>
-void appendRecord(std::vector<std::uint8_t>& input, int kind, T msg) {
-  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(msg.getEncodedSize()));
-  msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+void appendRecord(std::vector<std::uint8_t>& input, int kind, const T& msg) {
+  const std::vector<std::uint8_t> bytes = testutil::encoded(msg);
   input.push_back(static_cast<std::uint8_t>(kind));
   input.push_back(static_cast<std::uint8_t>(bytes.size() & 0xff));
   input.push_back(static_cast<std::uint8_t>(bytes.size() >> 8));
