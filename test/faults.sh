@@ -14,8 +14,8 @@
 #                    RIGHT, the camera proxy reports it
 #   controller_drop  the controller drops every b-CAP connection (sim.faults): the driver
 #                    reports it, reconnects, re-takes the arm, no jump
-#   clock_jump       one camera frame published again stamped a year ahead: it goes out, then
-#                    the camera proxy and the planner start their clocks over; the run completes
+#   clock_jump       one camera frame published again stamped a year ahead: the camera proxy
+#                    refuses it, nothing downstream sees it or starts over; the run completes
 # usage: test/faults.sh BUILD_DIR SOURCE_DIR FAULT   (needs root; prints what it measured)
 set -eu
 BUILD=$1

@@ -32,6 +32,24 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // Health first: a camera whose frames are all late is stale, not silent.
   Camera& cam = cameras_[frame.camera];
   cam.last_arrival = arrival;
+  // Far ahead of the newest frame taken: a bad stamp, unless the camera's frame before was as far
+  // ahead and within kClockJumpBack of it, its clock having jumped forward. Neither changes the
+  // time steps, the cameras' lag or their staleness until taken.
+  if (newest_utime_ != INT64_MIN && clockJumpedAhead(newest_utime_, frame.utime)) {
+    const bool confirmed = cam.ahead_utime != INT64_MIN && !clockWentBack(cam.ahead_utime, frame.utime) &&
+                           !clockJumpedAhead(cam.ahead_utime, frame.utime);
+    if (!confirmed) {
+      cam.ahead_utime = frame.utime;
+      char ahead[64];
+      std::snprintf(ahead, sizeof ahead, " is %.1f s ahead",
+                    static_cast<double>(behind(frame.utime, newest_utime_)) * 1e-6);
+      return {FrameStatus::kAhead, "camera '" + frame.camera + "': frame at utime " + std::to_string(frame.utime) +
+                                       ahead +
+                                       " of the newest frame taken (a bad stamp, or its clock jumped forward: "
+                                       "taken if its next frame confirms it)"};
+    }
+  }
+  cam.ahead_utime = INT64_MIN;
   if (clockWentBack(released_utime_, frame.utime)) {
     ++cam.back_frames;
     cam.back_utime = frame.utime;

@@ -16,6 +16,8 @@ const char* toString(FrameStatus status) {
       return "late";
     case FrameStatus::kDuplicate:
       return "duplicate";
+    case FrameStatus::kAhead:
+      return "ahead";
     case FrameStatus::kUnreadable:
       return "unreadable";
     case FrameStatus::kCount:

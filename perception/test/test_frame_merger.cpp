@@ -1,5 +1,5 @@
 // Frame merger: matching by utime, max wait, silent / stale cameras, late and duplicate frames,
-// the clock going back.
+// the clock going back, a frame far ahead.
 #include <gtest/gtest.h>
 
 #include "depowder/perception/frame_merger.hpp"
@@ -23,6 +23,28 @@ MergerConfig config() {
   c.stale_after = 0.5;
   return c;
 }
+
+/// No camera stale or lagging the newest frame.
+void expectNoLag(const FrameMerger& m, std::int64_t now) {
+  for (const CameraHealth& h : m.health(now)) {
+    EXPECT_FALSE(h.stale) << h.name;
+    EXPECT_EQ(h.utime_lag, 0) << h.name;
+  }
+}
+
+/// A one-camera cell at 30 Hz: each step adds LEFT's frame stamped `utime`, polls, and keeps
+/// what went out.
+struct OneCameraCell {
+  FrameMerger m{config(), {"LEFT"}};
+  std::int64_t now = kT0;
+  std::vector<MergedFrame> out;
+  FrameError step(std::int64_t utime) {
+    const FrameError e = m.add(frame("LEFT", utime), now);
+    for (MergedFrame& f : m.poll(now)) out.push_back(std::move(f));
+    now += 33 * kMs;
+    return e;
+  }
+};
 }  // namespace
 
 TEST(FrameMerger, TwoCamerasOneTimeStep) {
@@ -198,38 +220,77 @@ TEST(FrameMerger, EveryCameraGoingBackStartsTheTimeStepsOver) {
     EXPECT_EQ(out[i].utime, kT0 + i * 33 * kMs);
     EXPECT_EQ(out[i].sources.size(), 2u);
   }
-  for (const CameraHealth& h : m.health(now + 100 * kMs)) {
-    EXPECT_FALSE(h.stale) << h.name;
-    EXPECT_EQ(h.utime_lag, 0) << h.name;
-  }
+  expectNoLag(m, now + 100 * kMs);
 }
 
 TEST(FrameMerger, OneFarPastFrameOfTheOnlyCameraIsABadStampTwoAreARestart) {
   // A one-camera cell: one frame stamped 60 s in the past between good ones is refused as late
   // and changes nothing; two in a row are the clock going back, and the second starts over.
-  FrameMerger m(config(), {"LEFT"});
-  std::int64_t now = kT0;
-  const auto step = [&](std::int64_t utime) {
-    const FrameError e = m.add(frame("LEFT", utime), now);
-    m.poll(now);
-    now += 33 * kMs;
-    return e;
-  };
-  for (int i = 0; i < 3; ++i) ASSERT_TRUE(step(now).ok());
-  EXPECT_EQ(step(now - 60000 * kMs).status, FrameStatus::kLate);
-  EXPECT_EQ(m.restarts(), 0);
-  ASSERT_TRUE(step(now).ok());  // the next good frame goes out as before
-  EXPECT_EQ(m.health(now).front().utime_lag, 0);
+  OneCameraCell c;
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(c.step(c.now).ok());
+  EXPECT_EQ(c.step(c.now - 60000 * kMs).status, FrameStatus::kLate);
+  EXPECT_EQ(c.m.restarts(), 0);
+  ASSERT_TRUE(c.step(c.now).ok());  // the next good frame goes out as before
+  expectNoLag(c.m, c.now);
 
-  const std::int64_t back = now - 60000 * kMs;
-  EXPECT_EQ(step(back).status, FrameStatus::kLate);
-  EXPECT_EQ(m.restarts(), 0);
-  ASSERT_TRUE(step(back + 33 * kMs).ok());  // the second, 59.9 s behind: the new clock's first time step
-  EXPECT_EQ(m.restarts(), 1);
-  EXPECT_NE(m.lastRestart().find("went back 59.9 s"), std::string::npos) << m.lastRestart();
-  const FrameError next = m.add(frame("LEFT", back + 66 * kMs), now);
+  const std::int64_t back = c.now - 60000 * kMs;
+  EXPECT_EQ(c.step(back).status, FrameStatus::kLate);
+  EXPECT_EQ(c.m.restarts(), 0);
+  ASSERT_TRUE(c.step(back + 33 * kMs).ok());  // the second, 59.9 s behind: the new clock's first time step
+  EXPECT_EQ(c.m.restarts(), 1);
+  EXPECT_NE(c.m.lastRestart().find("went back 59.9 s"), std::string::npos) << c.m.lastRestart();
+  c.out.clear();
+  const FrameError next = c.step(back + 66 * kMs);
   EXPECT_TRUE(next.ok()) << next.message;
-  const auto out = m.poll(now);
-  ASSERT_EQ(out.size(), 1u);
-  EXPECT_EQ(out[0].utime, back + 66 * kMs);
+  ASSERT_EQ(c.out.size(), 1u);
+  EXPECT_EQ(c.out[0].utime, back + 66 * kMs);
+}
+
+TEST(FrameMerger, OneFarAheadFrameIsRefusedAndChangesNothing) {
+  // LEFT's frame of step 3 stamped a year ahead: refused, and the steps go on as if it had been
+  // lost; no camera turns stale, nothing starts over.
+  constexpr std::int64_t kYear = 365LL * 24 * 3600 * 1'000'000;
+  FrameMerger m(config(), {"LEFT", "RIGHT"});
+  std::vector<MergedFrame> out;
+  for (int i = 0; i < 6; ++i) {
+    const std::int64_t t = kT0 + i * 33 * kMs;
+    const FrameError left = m.add(frame("LEFT", i == 3 ? t + kYear : t), t);
+    if (i == 3) {
+      EXPECT_EQ(left.status, FrameStatus::kAhead);
+      EXPECT_NE(left.message.find("31536000.0 s ahead of the newest frame taken"), std::string::npos) << left.message;
+    } else {
+      EXPECT_TRUE(left.ok()) << i << ": " << left.message;
+    }
+    ASSERT_TRUE(m.add(frame("RIGHT", t), t + kMs).ok()) << i;
+    for (MergedFrame& f : m.poll(t + 30 * kMs)) out.push_back(std::move(f));
+  }
+  ASSERT_EQ(out.size(), 6u);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_EQ(out[i].utime, kT0 + i * 33 * kMs) << i;
+    EXPECT_EQ(out[i].sources.size(), i == 3 ? 1u : 2u) << i;
+  }
+  EXPECT_EQ(out[3].missing, std::vector<std::string>{"LEFT"});
+  EXPECT_EQ(m.restarts(), 0);
+  expectNoLag(m, kT0 + 200 * kMs);
+}
+
+TEST(FrameMerger, AClockJumpedForwardIsTakenFromItsSecondFrame) {
+  // The only camera's clock jumps 60 s forward: its first frame there is refused, the second,
+  // 33 ms after it, confirms the jump and goes out. Two bad stamps in a row far apart confirm
+  // nothing.
+  OneCameraCell c;
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(c.step(c.now).ok());
+  EXPECT_EQ(c.step(c.now + 3600000 * kMs).status, FrameStatus::kAhead);
+  EXPECT_EQ(c.step(c.now + 7200000 * kMs).status, FrameStatus::kAhead);  // not near the one before
+
+  const std::int64_t jump = 60000 * kMs;
+  EXPECT_EQ(c.step(c.now + jump).status, FrameStatus::kAhead);
+  const std::int64_t taken = c.now + jump;
+  EXPECT_TRUE(c.step(taken).ok());
+  EXPECT_TRUE(c.step(c.now + jump).ok());
+  ASSERT_EQ(c.out.size(), 5u);
+  EXPECT_EQ(c.out[3].utime, taken);
+  EXPECT_EQ(c.out[4].utime, taken + 33 * kMs);
+  EXPECT_EQ(c.m.restarts(), 0);
+  expectNoLag(c.m, c.now);
 }

@@ -7,6 +7,11 @@
 // the future was taken before it. Refusing it would refuse everything after it until the old
 // time comes round again (for a log played twice, its length; for a stamp years ahead, for
 // ever), so the process starts its time bookkeeping over from it instead and says so.
+//
+// One stamped more than kClockJumpBack newer than the newest taken is a stamp to doubt: a glitch
+// of its source, or its clock jumped forward. The camera proxy, where a frame's time enters the
+// cell, refuses such a frame unless the same camera's frame before it was as far ahead and near
+// it, so one bad stamp never reaches the processes downstream nor makes them start over.
 #pragma once
 
 #include <cstdint>
@@ -44,5 +49,8 @@ inline double secondsBetween(std::int64_t later, std::int64_t earlier) {
 inline bool clockWentBack(std::int64_t newest, std::int64_t utime) {
   return behind(newest, utime) > static_cast<std::uint64_t>(kClockJumpBack);
 }
+
+/// Whether `utime` is more than kClockJumpBack ahead of `newest`.
+inline bool clockJumpedAhead(std::int64_t newest, std::int64_t utime) { return clockWentBack(utime, newest); }
 
 }  // namespace depowder

@@ -10,6 +10,10 @@
 // behind the others: only when every camera heard within silent_after has sent a frame more
 // than kClockJumpBack behind the last time step published does the merger start over. The
 // time steps still waiting go out as they are, and the new frames are grouped from scratch.
+//
+// A frame more than kClockJumpBack ahead of the newest one taken is refused (kAhead) unless the
+// same camera's frame before it was refused so and lies within kClockJumpBack of it: one bad
+// stamp changes nothing, and a clock that jumped forward loses one frame per camera.
 #pragma once
 
 #include <cstdint>
@@ -52,8 +56,9 @@ class FrameMerger {
   explicit FrameMerger(MergerConfig config = {}, std::vector<std::string> known_cameras = {});
 
   /// Files a frame under its time step. kLate: its time step was already released;
-  /// kDuplicate: the same camera already has a frame with this utime waiting. The frame that
-  /// completes a clock going back is filed as the first of the new time steps.
+  /// kDuplicate: the same camera already has a frame with this utime waiting; kAhead: far ahead
+  /// of the newest frame, not confirmed. The frame that completes a clock going back is filed as
+  /// the first of the new time steps.
   FrameError add(CameraFrame frame, std::int64_t arrival);
 
   /// Time steps ready at `now`, oldest first (utime strictly increasing across calls, but for
@@ -82,8 +87,9 @@ class FrameMerger {
     std::int64_t frames = 0;        ///< accepted
     std::int64_t last_arrival = 0;  ///< 0 = never
     std::int64_t last_utime = 0;
-    int back_frames = 0;          ///< its frames in a row far behind the last time step published...
-    std::int64_t back_utime = 0;  ///< ...the newest of them (0 if none)
+    int back_frames = 0;                   ///< its frames in a row far behind the last time step published...
+    std::int64_t back_utime = 0;           ///< ...the newest of them (0 if none)
+    std::int64_t ahead_utime = INT64_MIN;  ///< its last frame, if refused as far ahead of the newest taken
   };
   /// Waited for: seen within silent_after and not stale.
   bool expected(const Camera& c, std::int64_t now) const;

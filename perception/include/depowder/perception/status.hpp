@@ -15,6 +15,7 @@ enum class FrameStatus {
   kNoValidReturns,  ///< every pixel is 0 / NaN or out of range (a blind or dead frame)
   kLate,            ///< older than a time step that was already published
   kDuplicate,       ///< same camera and utime as a frame already waiting
+  kAhead,           ///< stamped far ahead of the newest frame, and the camera's frame before was not
   kUnreadable,      ///< a recorded scan that could not be read (missing, corrupt)
   kCount
 };
