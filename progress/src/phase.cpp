@@ -109,11 +109,18 @@ Phase PhaseMachine::update(double eta, std::int64_t utime) {
     frames_at_target_ = 0;
     return phase_;  // the blast has not run yet
   }
+  const std::int64_t previous = last_utime_;
+  last_utime_ = utime;
   if (phase_ != Phase::kAirBlast) return phase_;
 
   // Done once the blast pass has run long enough and then confirms eta at the target. The blast
-  // is timed from a frame far behind its start anew: the frames' clock went back (depowder/clock.hpp).
-  if (blast_utime_ >= 0 && clockWentBack(blast_utime_, utime)) blast_utime_ = utime;
+  // is timed in the frames' time (depowder/clock.hpp): from a frame far behind its start anew (the
+  // clock went back), and without a gap of more than kClockJumpBack between two frames of it (the
+  // clock jumped forward, or no frame came, so no plan from one ran).
+  if (blast_utime_ >= 0 && clockWentBack(blast_utime_, utime))
+    blast_utime_ = utime;
+  else if (blast_utime_ >= 0 && previous >= blast_utime_ && clockJumpedAhead(previous, utime))
+    blast_utime_ += utime - previous;
   const bool blasted = blast_utime_ >= 0 && (utime - blast_utime_) * 1e-6 >= config_.blast_min_s;
   frames_at_target_ = blasted && eta >= config_.done_eta ? frames_at_target_ + 1 : 0;
   if (frames_at_target_ >= config_.done_frames) phase_ = Phase::kDone;

@@ -187,5 +187,23 @@ TEST(Phase, TheBlastIsTimedAnewWhenTheClockGoesBack) {
   EXPECT_NEAR((t - from) * 1e-6, 5.0 + 9 * kFrameUs * 1e-6, kFrameUs * 1e-6 + 1e-9);
 }
 
+// The frames' clock jumps 60 s forward 2 s into the blast: the jump is no blasting, so the part
+// is done after blast_min_s of frames in all, not at the first frame after it.
+TEST(Phase, AGapInTheFramesIsNotTimeBlasted) {
+  PhaseMachine m;
+  std::int64_t t = 0;
+  m.update(0.31, t += kFrameUs);
+  m.update(0.95, t += kFrameUs);
+  ASSERT_EQ(m.phase(), Phase::kAirBlast);
+  m.airBlastStarted(t);
+  const std::int64_t from = t;
+  while (t < from + 2'000'000) m.update(0.95, t += kFrameUs);
+  const std::int64_t jump = 60'000'000;  // from one frame to the next
+  t += jump - kFrameUs;
+  while (m.phase() != Phase::kDone && t < from + jump + 20'000'000) m.update(0.95, t += kFrameUs);
+  EXPECT_EQ(m.phase(), Phase::kDone);
+  EXPECT_NEAR((t - from - jump) * 1e-6, 5.0 + 9 * kFrameUs * 1e-6, kFrameUs * 1e-6 + 1e-9);
+}
+
 }  // namespace
 }  // namespace depowder::progress

@@ -91,7 +91,8 @@ class PhaseMachine {
  private:
   PhaseConfig config_;
   Phase phase_ = Phase::kVacuumBuried;
-  std::int64_t blast_utime_ = -1;  ///< first air-blast plan (or phase-3 entry) since phase 3 began
+  std::int64_t blast_utime_ = -1;  ///< first air-blast plan (or phase-3 entry) since phase 3 began, moved on by gaps
+  std::int64_t last_utime_ = -1;   ///< the frame before
   int frames_at_target_ = 0;
 };
 
