@@ -171,38 +171,46 @@ TEST(Phase, DoneNeedsTheTargetConfirmedAfterTheBlast) {
   EXPECT_EQ(m.phase(), Phase::kDone);
 }
 
+/// A part entering phase 3 in two frames at 30 Hz; `t` is the last frame's utime.
+struct InAirBlast {
+  PhaseMachine m;
+  std::int64_t t = 0;
+  InAirBlast() {
+    m.update(0.31, t += kFrameUs);
+    m.update(0.95, t += kFrameUs);
+  }
+  /// Frames at the target until done (20 s of them at most): s from `from` to the frame done.
+  double secondsToDone(std::int64_t from) {
+    const std::int64_t until = t + 20'000'000;
+    while (m.phase() != Phase::kDone && t < until) m.update(0.95, t += kFrameUs);
+    return (t - from) * 1e-6;
+  }
+};
+constexpr double kDoneAfter = 5.0 + 9 * kFrameUs * 1e-6;  // blast_min_s, then 10 frames at the target
+
 // An air-blast plan stamped a year ahead (or the frames' clock going back during the blast):
 // the blast is timed from the first frame far behind its start, so the part is still done after
 // blast_min_s of frames, not a year later.
 TEST(Phase, TheBlastIsTimedAnewWhenTheClockGoesBack) {
-  PhaseMachine m;
-  std::int64_t t = 0;
-  m.update(0.31, t += kFrameUs);
-  m.update(0.95, t += kFrameUs);
-  ASSERT_EQ(m.phase(), Phase::kAirBlast);
-  m.airBlastStarted(t + 365LL * 24 * 3600 * 1'000'000);
-  const std::int64_t from = t + kFrameUs;
-  while (m.phase() != Phase::kDone && t < from + 20'000'000) m.update(0.95, t += kFrameUs);
-  EXPECT_EQ(m.phase(), Phase::kDone);
-  EXPECT_NEAR((t - from) * 1e-6, 5.0 + 9 * kFrameUs * 1e-6, kFrameUs * 1e-6 + 1e-9);
+  InAirBlast b;
+  ASSERT_EQ(b.m.phase(), Phase::kAirBlast);
+  b.m.airBlastStarted(b.t + 365LL * 24 * 3600 * 1'000'000);
+  EXPECT_NEAR(b.secondsToDone(b.t + kFrameUs), kDoneAfter, kFrameUs * 1e-6 + 1e-9);
+  EXPECT_EQ(b.m.phase(), Phase::kDone);
 }
 
 // The frames' clock jumps 60 s forward 2 s into the blast: the jump is no blasting, so the part
 // is done after blast_min_s of frames in all, not at the first frame after it.
 TEST(Phase, AGapInTheFramesIsNotTimeBlasted) {
-  PhaseMachine m;
-  std::int64_t t = 0;
-  m.update(0.31, t += kFrameUs);
-  m.update(0.95, t += kFrameUs);
-  ASSERT_EQ(m.phase(), Phase::kAirBlast);
-  m.airBlastStarted(t);
-  const std::int64_t from = t;
-  while (t < from + 2'000'000) m.update(0.95, t += kFrameUs);
+  InAirBlast b;
+  ASSERT_EQ(b.m.phase(), Phase::kAirBlast);
+  b.m.airBlastStarted(b.t);
+  const std::int64_t from = b.t;
+  while (b.t < from + 2'000'000) b.m.update(0.95, b.t += kFrameUs);
   const std::int64_t jump = 60'000'000;  // from one frame to the next
-  t += jump - kFrameUs;
-  while (m.phase() != Phase::kDone && t < from + jump + 20'000'000) m.update(0.95, t += kFrameUs);
-  EXPECT_EQ(m.phase(), Phase::kDone);
-  EXPECT_NEAR((t - from - jump) * 1e-6, 5.0 + 9 * kFrameUs * 1e-6, kFrameUs * 1e-6 + 1e-9);
+  b.t += jump - kFrameUs;
+  EXPECT_NEAR(b.secondsToDone(from) - jump * 1e-6, kDoneAfter, kFrameUs * 1e-6 + 1e-9);
+  EXPECT_EQ(b.m.phase(), Phase::kDone);
 }
 
 }  // namespace
