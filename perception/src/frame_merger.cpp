@@ -10,6 +10,13 @@ namespace depowder::perception {
 
 namespace {
 std::int64_t micros(double seconds) { return static_cast<std::int64_t>(seconds * 1e6); }
+
+/// How far `utime`, arriving at `arrival`, runs ahead of `reference`, which arrived at
+/// `reference_arrival`, beyond the wall time between them: us, < 0 behind. Utimes are in 0 to
+/// 2^53 (the camera proxy refuses others) and arrivals are the wall clock: no overflow.
+std::int64_t drift(std::int64_t reference, std::int64_t reference_arrival, std::int64_t utime, std::int64_t arrival) {
+  return utime - reference - std::max<std::int64_t>(0, arrival - reference_arrival);
+}
 }  // namespace
 
 FrameMerger::FrameMerger(MergerConfig config, std::vector<std::string> known_cameras) : config_(config) {
@@ -32,21 +39,23 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // Health first: a camera whose frames are all late is stale, not silent.
   Camera& cam = cameras_[frame.camera];
   cam.last_arrival = arrival;
-  // Far ahead of the newest frame taken: a bad stamp, unless the camera's frame before was as far
-  // ahead and within kClockJumpBack of it, its clock having jumped forward. Neither changes the
-  // time steps, the cameras' lag or their staleness until taken.
-  if (newest_utime_ != INT64_MIN && clockJumpedAhead(newest_utime_, frame.utime)) {
-    const bool confirmed = cam.ahead_utime != INT64_MIN && !clockWentBack(cam.ahead_utime, frame.utime) &&
-                           !clockJumpedAhead(cam.ahead_utime, frame.utime);
+  // Far ahead, its clock having run more than kClockJumpBack ahead of the wall clock since the
+  // newest frame taken: a bad stamp, unless the camera's frame before was refused so and this one
+  // runs with it, its clock having jumped forward. Neither changes the time steps, the cameras'
+  // lag or their staleness until taken.
+  const std::int64_t ahead = drift(newest_utime_, newest_arrival_, frame.utime, arrival);
+  if (newest_utime_ != INT64_MIN && ahead > kClockJumpBack) {
+    const bool confirmed = cam.ahead_utime != INT64_MIN && std::llabs(drift(cam.ahead_utime, cam.ahead_arrival,
+                                                                            frame.utime, arrival)) <= kClockJumpBack;
     if (!confirmed) {
       cam.ahead_utime = frame.utime;
-      char ahead[64];
-      std::snprintf(ahead, sizeof ahead, " is %.1f s ahead",
-                    static_cast<double>(behind(frame.utime, newest_utime_)) * 1e-6);
+      cam.ahead_arrival = arrival;
+      char buf[80];
+      std::snprintf(buf, sizeof buf, " is %.1f s ahead", static_cast<double>(ahead) * 1e-6);
       return {FrameStatus::kAhead, "camera '" + frame.camera + "': frame at utime " + std::to_string(frame.utime) +
-                                       ahead +
-                                       " of the newest frame taken (a bad stamp, or its clock jumped forward: "
-                                       "taken if its next frame confirms it)"};
+                                       buf +
+                                       " of the newest frame taken and the time since (a bad stamp, or its clock "
+                                       "jumped forward: taken if its next frame confirms it)"};
     }
   }
   cam.ahead_utime = INT64_MIN;
@@ -59,7 +68,7 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
     cam.back_utime = 0;
   }
   cam.last_utime = std::max(cam.last_utime, frame.utime);
-  newest_utime_ = std::max(newest_utime_, frame.utime);
+  if (frame.utime > newest_utime_) newest_utime_ = frame.utime, newest_arrival_ = arrival;
 
   const std::int64_t tol = micros(config_.match_tolerance);
   // A frame whose time step may already have been released cannot be used any more.
@@ -120,6 +129,7 @@ void FrameMerger::restartIfClockWentBack(std::int64_t arrival) {
   pending_.clear();
   released_utime_ = INT64_MIN;
   newest_utime_ = newest_back;
+  newest_arrival_ = arrival;
   for (auto& [name, c] : cameras_) {
     c.last_utime = c.back_utime;
     c.back_frames = 0;

@@ -37,11 +37,12 @@ void expectNoLag(const FrameMerger& m, std::int64_t now) {
 struct OneCameraCell {
   FrameMerger m{config(), {"LEFT"}};
   std::int64_t now = kT0;
+  std::int64_t period = 33 * kMs;
   std::vector<MergedFrame> out;
   FrameError step(std::int64_t utime) {
     const FrameError e = m.add(frame("LEFT", utime), now);
     for (MergedFrame& f : m.poll(now)) out.push_back(std::move(f));
-    now += 33 * kMs;
+    now += period;
     return e;
   }
 };
@@ -257,7 +258,8 @@ TEST(FrameMerger, OneFarAheadFrameIsRefusedAndChangesNothing) {
     const FrameError left = m.add(frame("LEFT", i == 3 ? t + kYear : t), t);
     if (i == 3) {
       EXPECT_EQ(left.status, FrameStatus::kAhead);
-      EXPECT_NE(left.message.find("31536000.0 s ahead of the newest frame taken"), std::string::npos) << left.message;
+      EXPECT_NE(left.message.find("31536000.0 s ahead of the newest frame taken and the time since"), std::string::npos)
+          << left.message;
     } else {
       EXPECT_TRUE(left.ok()) << i << ": " << left.message;
     }
@@ -293,4 +295,21 @@ TEST(FrameMerger, AClockJumpedForwardIsTakenFromItsSecondFrame) {
   EXPECT_EQ(c.out[4].utime, taken + 33 * kMs);
   EXPECT_EQ(c.m.restarts(), 0);
   expectNoLag(c.m, c.now);
+}
+
+TEST(FrameMerger, FramesFarApartInTimeAreNotAhead) {
+  // The only camera sends a frame every 5 s (recorded scans played slowly), then falls silent
+  // for 20 s: each frame is far ahead of the one before, but no further than the time between
+  // them, and is taken. Its clock then jumps 60 s forward: confirmed by the next frame 5 s on.
+  OneCameraCell c;
+  c.period = 5000 * kMs;
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(c.step(c.now).ok()) << i;
+  c.now += 20000 * kMs;
+  ASSERT_TRUE(c.step(c.now).ok());
+  EXPECT_EQ(c.step(c.now + 60000 * kMs).status, FrameStatus::kAhead);
+  const FrameError confirmed = c.step(c.now + 60000 * kMs);
+  EXPECT_TRUE(confirmed.ok()) << confirmed.message;
+  ASSERT_EQ(c.out.size(), 5u);
+  EXPECT_EQ(c.out.back().utime, c.now - c.period + 60000 * kMs);
+  EXPECT_EQ(c.m.restarts(), 0);
 }

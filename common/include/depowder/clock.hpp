@@ -8,10 +8,11 @@
 // time comes round again (for a log played twice, its length; for a stamp years ahead, for
 // ever), so the process starts its time bookkeeping over from it instead and says so.
 //
-// One stamped more than kClockJumpBack newer than the newest taken is a stamp to doubt: a glitch
-// of its source, or its clock jumped forward. The camera proxy, where a frame's time enters the
-// cell, refuses such a frame unless the same camera's frame before it was as far ahead and near
-// it, so one bad stamp never reaches the processes downstream nor makes them start over.
+// One stamped more than kClockJumpBack further ahead of the newest taken than the time since it
+// arrived is a stamp to doubt: a glitch of its source, or its clock jumped forward. The camera
+// proxy, where a frame's time enters the cell, refuses such a frame unless the same camera's frame
+// before it was refused so and this one runs with it, so one bad stamp never reaches the
+// processes downstream nor makes them start over.
 #pragma once
 
 #include <cstdint>

@@ -11,9 +11,10 @@
 // than kClockJumpBack behind the last time step published does the merger start over. The
 // time steps still waiting go out as they are, and the new frames are grouped from scratch.
 //
-// A frame more than kClockJumpBack ahead of the newest one taken is refused (kAhead) unless the
-// same camera's frame before it was refused so and lies within kClockJumpBack of it: one bad
-// stamp changes nothing, and a clock that jumped forward loses one frame per camera.
+// A frame whose utime ran more than kClockJumpBack ahead of the wall clock since the newest frame
+// taken is refused (kAhead) unless the same camera's frame before it was refused so and this one
+// runs within kClockJumpBack of it: one bad stamp changes nothing, a clock that jumped forward
+// loses one frame per camera, and frames far apart in time (a slow camera, a silence) are not ahead.
 #pragma once
 
 #include <cstdint>
@@ -89,7 +90,8 @@ class FrameMerger {
     std::int64_t last_utime = 0;
     int back_frames = 0;                   ///< its frames in a row far behind the last time step published...
     std::int64_t back_utime = 0;           ///< ...the newest of them (0 if none)
-    std::int64_t ahead_utime = INT64_MIN;  ///< its last frame, if refused as far ahead of the newest taken
+    std::int64_t ahead_utime = INT64_MIN;  ///< its last frame, if refused as far ahead...
+    std::int64_t ahead_arrival = 0;        ///< ...and when it arrived
   };
   /// Waited for: seen within silent_after and not stale.
   bool expected(const Camera& c, std::int64_t now) const;
@@ -105,7 +107,8 @@ class FrameMerger {
   std::vector<MergedFrame> flushed_;         ///< time steps of the old clock, released at the next poll
   std::int64_t released_utime_ = INT64_MIN;  ///< reference utime of the last released group
   std::int64_t newest_utime_ = INT64_MIN;
-  std::int64_t start_ = 0;  ///< arrival of the first frame (wall clock)
+  std::int64_t newest_arrival_ = 0;  ///< of the frame of newest_utime_ (wall clock)
+  std::int64_t start_ = 0;           ///< arrival of the first frame (wall clock)
   std::int64_t restarts_ = 0;
   std::string last_restart_;
 };
