@@ -43,8 +43,9 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // newest frame taken: a bad stamp, unless the camera's frame before was refused so and this one
   // runs with it, its clock having jumped forward. Neither changes the time steps, the cameras'
   // lag or their staleness until taken.
-  const std::int64_t ahead = drift(newest_utime_, newest_arrival_, frame.utime, arrival);
-  if (newest_utime_ != INT64_MIN && ahead > kClockJumpBack) {
+  const std::int64_t ahead =
+      newest_utime_ == INT64_MIN ? 0 : drift(newest_utime_, newest_arrival_, frame.utime, arrival);
+  if (ahead > kClockJumpBack) {
     const bool confirmed = cam.ahead_utime != INT64_MIN && std::llabs(drift(cam.ahead_utime, cam.ahead_arrival,
                                                                             frame.utime, arrival)) <= kClockJumpBack;
     if (!confirmed) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "depowder/clock.hpp"
@@ -96,6 +97,7 @@ void PhaseMachine::airBlastStarted(std::int64_t utime) {
 
 Phase PhaseMachine::update(double eta, std::int64_t utime) {
   if (!std::isfinite(eta) || phase_ == Phase::kDone) return phase_;
+  const std::int64_t previous = std::exchange(last_utime_, utime);
   // Sec. III-B: phase 1 while eta <= eta1, phase 2 while eta <= eta2, phase 3 above.
   if (phase_ == Phase::kAirBlast && eta < config_.eta2 - config_.hysteresis) {
     phase_ = Phase::kVacuumTracked;  // powder came back: vacuum again, and a new blast later
@@ -109,8 +111,6 @@ Phase PhaseMachine::update(double eta, std::int64_t utime) {
     frames_at_target_ = 0;
     return phase_;  // the blast has not run yet
   }
-  const std::int64_t previous = last_utime_;
-  last_utime_ = utime;
   if (phase_ != Phase::kAirBlast) return phase_;
 
   // Done once the blast pass has run long enough and then confirms eta at the target. The blast
