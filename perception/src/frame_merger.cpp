@@ -39,10 +39,8 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // Health first: a camera whose frames are all late is stale, not silent.
   Camera& cam = cameras_[frame.camera];
   cam.last_arrival = arrival;
-  // Far ahead, its clock having run more than kClockJumpBack ahead of the wall clock since the
-  // newest frame taken: a bad stamp, unless the camera's frame before was refused so and this one
-  // runs with it, its clock having jumped forward. Neither changes the time steps, the cameras'
-  // lag or their staleness until taken.
+  // Far ahead (the rule in frame_merger.hpp): refused unless it confirms the camera's frame
+  // refused before. A refused frame changes no time step, lag or staleness.
   const std::int64_t ahead =
       newest_utime_ == INT64_MIN ? 0 : drift(newest_utime_, newest_arrival_, frame.utime, arrival);
   if (ahead > kClockJumpBack) {

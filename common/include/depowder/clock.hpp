@@ -51,7 +51,9 @@ inline bool clockWentBack(std::int64_t newest, std::int64_t utime) {
   return behind(newest, utime) > static_cast<std::uint64_t>(kClockJumpBack);
 }
 
-/// Whether `utime` is more than kClockJumpBack ahead of `newest`.
+/// Whether `utime` is more than kClockJumpBack ahead of `newest`: stamps alone, for a gap between
+/// two frames. Not the camera proxy's far-ahead rule, which allows the wall time between them too
+/// (a slow camera's frames are seconds apart).
 inline bool clockJumpedAhead(std::int64_t newest, std::int64_t utime) { return clockWentBack(utime, newest); }
 
 }  // namespace depowder
