@@ -105,7 +105,8 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
     return {InputStatus::kInvalidPose,
             "PART_POSE of " + in.part + " is not a valid rigid transform (NaN or not orthonormal)"};
   if (!utimeInRange(in.utime)) return outOfRange("PART_POSE of " + in.part, in.utime);
-  const std::string restart = restartIfClockWentBack("PART_POSE", in.part, in.utime);
+  const InputResult clock = checkClock("PART_POSE", in.part, in.utime);
+  if (!clock.ok()) return clock;
   PartState& s = states_[i];
   if (s.pose && in.utime < s.pose->utime)
     return {InputStatus::kOutOfOrder, "PART_POSE of " + in.part + " is older than the last one"};
@@ -123,7 +124,7 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
       s.moved_utime = in.utime;
     }
   }
-  return {InputStatus::kAccepted, restart};
+  return clock;
 }
 
 InputResult CellPlanner::onProgress(const ProgressInput& in) {
@@ -155,7 +156,9 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
     return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " says OK but its contour has " +
                                               std::to_string(inside.size()) + " points" +
                                               (left_out ? " (" + outside + ")" : "")};
-  std::string note = restartIfClockWentBack("PROGRESS", in.part, in.utime);
+  const InputResult clock = checkClock("PROGRESS", in.part, in.utime);
+  if (!clock.ok()) return clock;
+  std::string note = clock.reason;
   PartState& s = states_[i];
   if (s.progress && in.utime < s.progress->utime)
     return {InputStatus::kOutOfOrder, "PROGRESS of " + in.part + " is older than the last one"};
@@ -182,12 +185,23 @@ InputResult CellPlanner::onRobot(const RobotInput& in) {
   return {};
 }
 
-std::string CellPlanner::restartIfClockWentBack(const char* what, const std::string& part, std::int64_t utime) {
-  if (newest_utime_ == 0 || !clockWentBack(newest_utime_, utime)) return "";
-  char buf[96];
+InputResult CellPlanner::checkClock(const char* what, const std::string& part, std::int64_t utime) {
+  if (newest_utime_ == 0 || !clockWentBack(newest_utime_, utime)) {
+    back_utime_ = -1;
+    return {};
+  }
+  char buf[64];
   std::snprintf(buf, sizeof buf, " is %.1f s behind the newest input",
                 static_cast<double>(behind(newest_utime_, utime)) * 1e-6);
-  for (PartState& s : states_) {  // all but the part itself
+  const std::string said = what + (" of " + part) + buf;
+  // One alone is a bad stamp, refused; the clock went back when the input after it is as far
+  // behind and runs with it (not itself far behind it).
+  const bool confirmed = back_utime_ >= 0 && !clockWentBack(back_utime_, utime);
+  back_utime_ = utime;
+  if (!confirmed)
+    return {InputStatus::kOutOfOrder,
+            said + ": refused, unless the next input confirms that the frames' clock went back"};
+  for (PartState& s : states_) {
     PartState fresh;
     fresh.spec = std::move(s.spec);
     s = std::move(fresh);
@@ -195,9 +209,12 @@ std::string CellPlanner::restartIfClockWentBack(const char* what, const std::str
   newest_utime_ = newest_progress_utime_ = active_utime_ = 0;
   cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
   active_is_cycle_ = false;
+  back_utime_ = -1;
   ++clock_restarts_;
-  return what + (" of " + part) + buf +
-         ": the frames' clock went back (a log played again, or the cameras restarted); planning starts over";
+  return {InputStatus::kAccepted,
+          said +
+              ", as was the one before it: the frames' clock went back (a log played again, or the cameras "
+              "restarted); planning starts over"};
 }
 
 void CellPlanner::updateWorld() {

@@ -421,9 +421,10 @@ TEST_F(CellTest, AllDoneGoesHome) {
 }
 
 // A log played again into the running planner, then a pose stamped a year ahead: each time the
-// next inputs are far behind the newest, the frames' clock went back. The planner forgets the old
-// clock's inputs and times and plans afresh, where it used to refuse every input as out of order
-// (and, with the pose from the future, hold the nozzle away from a "moving" part for ever).
+// next inputs are far behind the newest, two in a row, the frames' clock went back. The planner
+// forgets the old clock's inputs and times and plans afresh, where it used to refuse every input
+// as out of order (and, with the pose from the future, hold the nozzle away from a "moving" part
+// for ever).
 TEST_F(CellTest, TheFramesClockGoingBackStartsThePlanningOver) {
   config.replan.settle_s = 1.0;
   SetUp();
@@ -436,9 +437,18 @@ TEST_F(CellTest, TheFramesClockGoingBackStartsThePlanningOver) {
             InputStatus::kOutOfOrder);
 
   utime -= 60 * kSecond;  // the log from its start
-  const InputResult again = planner->onPose({"left", utime, T_left, TrackStatus::kTracking, ""});
+  // Its first input could be a bad stamp on its own: refused.
+  const InputResult first = planner->onPose({"left", utime, T_left, TrackStatus::kTracking, ""});
+  EXPECT_EQ(first.status, InputStatus::kOutOfOrder);
+  EXPECT_NE(first.reason.find("PART_POSE of left is 60.0 s behind the newest input: refused"), std::string::npos)
+      << first.reason;
+  EXPECT_EQ(planner->clockRestarts(), 0);
+  // The next one runs with it: taken, and the planning starts over.
+  const InputResult again = planner->onProgress(progress("left", T_left, Phase::kVacuumTracked, 0.04));
   EXPECT_TRUE(again.ok());
-  EXPECT_NE(again.reason.find("PART_POSE of left is 60.0 s behind"), std::string::npos) << again.reason;
+  EXPECT_NE(again.reason.find("PROGRESS of left is 60.0 s behind the newest input, as was the one before it"),
+            std::string::npos)
+      << again.reason;
   EXPECT_EQ(planner->clockRestarts(), 1);
   frame("left", T_left, Phase::kVacuumTracked, 0.04);
   frame("right", T_right, Phase::kVacuumTracked, 0.04);
@@ -456,6 +466,7 @@ TEST_F(CellTest, TheFramesClockGoingBackStartsThePlanningOver) {
   EXPECT_NE(away->reason.find("moving: left"), std::string::npos) << away->reason;
   // The next frames are a year behind it: the clock went back again, and the watch is forgotten.
   utime = now + 33000;
+  EXPECT_FALSE(planner->onPose({"left", utime, T_left, TrackStatus::kTracking, ""}).ok());
   frame("left", T_left, Phase::kVacuumTracked, 0.04);
   frame("right", T_right, Phase::kVacuumTracked, 0.04);
   EXPECT_EQ(planner->clockRestarts(), 2);
@@ -464,6 +475,34 @@ TEST_F(CellTest, TheFramesClockGoingBackStartsThePlanningOver) {
   EXPECT_EQ(resumed->reason.find("moving"), std::string::npos) << resumed->reason;
   EXPECT_GT(withTool(*resumed, Tool::kVacuum).size(), 20u);
   EXPECT_EQ(resumed->utime, utime);
+}
+
+// One pose or progress stamped far behind among the frames is a bad stamp, not the clock going
+// back: refused, and nothing forgotten. Nor do two such, with a frame between them or the second
+// far behind the first.
+TEST_F(CellTest, ALoneInputFarBehindIsRefusedAndNothingStartsOver) {
+  utime = 24 * 3600 * kSecond;  // a day after the epoch: room for stamps hours behind
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  auto p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "no plan");
+  const auto behind = [&](std::int64_t by) {
+    return planner->onPose(
+        {"left", utime - by, T_left * makePoseRpy({0, 0.1, 0}, 0, 0, 0), TrackStatus::kTracking, ""});
+  };
+  const InputResult lone = behind(60 * kSecond);
+  EXPECT_EQ(lone.status, InputStatus::kOutOfOrder);
+  EXPECT_NE(lone.reason.find("is 60.0 s behind the newest input: refused"), std::string::npos) << lone.reason;
+  utime += 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  EXPECT_EQ(behind(3600 * kSecond).status, InputStatus::kOutOfOrder);
+  const InputResult second = behind(7200 * kSecond);
+  EXPECT_EQ(second.status, InputStatus::kOutOfOrder) << "an hour behind the one refused before it: " << second.reason;
+  EXPECT_EQ(planner->clockRestarts(), 0);
+  // The frames go on as before: the plan stands, from the pose taken.
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  EXPECT_FALSE(planner->step());
+  EXPECT_TRUE(planner->world().partPose(0).isApprox(T_left));
 }
 
 // A contour point beyond the box's walls is no powder round the part (a wall's top in a wide

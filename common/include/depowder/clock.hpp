@@ -6,7 +6,8 @@
 // processes, a camera, simulator or host restarted with another clock, or a message stamped in
 // the future was taken before it. Refusing it would refuse everything after it until the old
 // time comes round again (for a log played twice, its length; for a stamp years ahead, for
-// ever), so the process starts its time bookkeeping over from it instead and says so.
+// ever), so the process starts its time bookkeeping over instead and says so. The camera proxy
+// and the planner do so only once two in a row are far behind: one alone is a bad stamp, refused.
 //
 // One stamped more than kClockJumpBack further ahead of the newest taken than the time since it
 // arrived is a stamp to doubt: a glitch of its source, or its clock jumped forward. The camera

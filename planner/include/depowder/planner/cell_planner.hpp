@@ -83,10 +83,11 @@ class CellPlanner {
               const PlannerConfig& config = {});
   ~CellPlanner();
 
-  /// A pose or progress older than the part's last is refused (kOutOfOrder), unless it is so
-  /// much older than the newest input that the frames' clock went back (depowder/clock.hpp): then
-  /// every pose, progress and time of the old clock is forgotten, the parts are planned afresh
-  /// from the inputs that follow, and the result's reason says so.
+  /// A pose or progress older than the part's last is refused (kOutOfOrder). One more than
+  /// kClockJumpBack behind the newest input (depowder/clock.hpp) is refused too, unless the input
+  /// before it was refused so and this one is not as far behind that one: two in a row mean the
+  /// frames' clock went back. Then every pose, progress and time of the old clock is forgotten,
+  /// the parts are planned afresh from this input on, and the result's reason says so.
   InputResult onPose(const PoseInput& in);
   InputResult onProgress(const ProgressInput& in);
   /// The robot's clock going back dates the end of the running cycle anew.
@@ -113,9 +114,10 @@ class CellPlanner {
   std::optional<Plan> refresh(std::int64_t utime);
   bool eligible(int i) const;
   bool cycleFinished() const;
-  /// Forgets the old clock's inputs and times if `utime` is far behind the newest input; says so
-  /// ("" if not), naming the message (`what` of `part`).
-  std::string restartIfClockWentBack(const char* what, const std::string& part, std::int64_t utime);
+  /// The clock rule for a pose or progress at `utime` (`what` of `part`): one far behind the newest
+  /// input is refused (kOutOfOrder), unless the input before it was refused so and this one runs
+  /// with it. Then the old clock's inputs and times are forgotten and the result (accepted) says so.
+  InputResult checkClock(const char* what, const std::string& part, std::int64_t utime);
   void updateWorld();
 
   PlannerConfig config_;
@@ -146,6 +148,7 @@ class CellPlanner {
   std::string home_reason_;  ///< why the last home move was planned ("" if none since the last cycle)
   bool finished_ = false;
   std::int64_t clock_restarts_ = 0;
+  std::int64_t back_utime_ = -1;  ///< of the last input if it was refused as far behind the newest (-1: it was not)
 };
 
 }  // namespace depowder::planner
