@@ -197,10 +197,11 @@ InputResult CellPlanner::checkClock(const char* what, const std::string& part, s
   // One alone is a bad stamp, refused; the clock went back when the input after it is as far
   // behind and runs with it (not itself far behind it).
   const bool confirmed = back_utime_ >= 0 && !clockWentBack(back_utime_, utime);
-  back_utime_ = utime;
-  if (!confirmed)
+  if (!confirmed) {
+    back_utime_ = utime;
     return {InputStatus::kOutOfOrder,
             said + ": refused, unless the next input confirms that the frames' clock went back"};
+  }
   for (PartState& s : states_) {
     PartState fresh;
     fresh.spec = std::move(s.spec);
