@@ -10,17 +10,14 @@
 
 #include "depowder/child_process.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/test_messages.hpp"
 #include "depth_msg.hpp"
 
 namespace depowder::perception::testing {
 
 const char* const kListenUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
 
-double CameraRunResult::stat(const std::string& name) const {
-  for (std::size_t i = 0; i < last_heartbeat.stat_names.size(); ++i)
-    if (last_heartbeat.stat_names[i] == name) return last_heartbeat.stat_values[i];
-  return std::nan("");
-}
+double CameraRunResult::stat(const std::string& name) const { return testutil::heartbeatStat(last_heartbeat, name); }
 
 CameraRunResult runCamera(const CameraRunConfig& config) {
   using Clock = std::chrono::steady_clock;

@@ -14,6 +14,7 @@
 #include "depowder/node/convert.hpp"
 #include "depowder/perception/camera_proxy.hpp"
 #include "depowder/stats.hpp"
+#include "depowder/test_messages.hpp"
 #include "synthetic.hpp"
 
 using namespace depowder;
@@ -294,10 +295,7 @@ TEST(CameraNetns, RecordedScansPlayInOrderPastACorruptFile) {
   EXPECT_LT((decoded->at(0) - Eigen::Vector3d(0.0525, 0.0525, 0.0525)).norm(), 0.0005);
   EXPECT_NE(readFile(log).find("2.pcd: not a PCD file (no DATA line in the header)"), std::string::npos)
       << readFile(log);
-  bool counted = false;
-  for (std::size_t i = 0; i < last.stat_names.size(); ++i)
-    if (last.stat_names[i] == "dropped_unreadable") counted = last.stat_values[i] == 1;
-  EXPECT_TRUE(counted);
+  EXPECT_EQ(testutil::heartbeatStat(last, "dropped_unreadable"), 1);
   fs::remove_all(dir);
   fs::remove(log);
 }

@@ -71,6 +71,48 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   EXPECT_EQ(process_.terminate(), 0);
 }
 
+// The clock rule over the bus: a lone pose stamped a minute behind is refused and counted, and
+// nothing starts over; a log played again (its frame's PART_POSE refused, its PROGRESS taken)
+// starts the planning over, counted in the heartbeat, and plans come from the new clock.
+TEST_F(PlannerProcess, ALoneInputFarBehindIsRefusedTwoInARowStartOver) {
+  node::Bus bus(kUrl, process_.prefix());
+  nozzle_plan_t plan{};
+  heartbeat_t last{};
+  int heartbeats = 0;
+  bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) { plan = m; });
+  bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
+    if (h.process == "depowder-planner") last = h, ++heartbeats;
+  });
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-planner";
+  const Pose T = makePoseRpy({0.01, 0.0, 0.03}, 0, 0, 0.2);
+  const auto frame = [&](std::int64_t utime) {
+    bus.publish("PART_POSE", test::cubePose(utime, T));
+    bus.publish("PROGRESS", test::cubeProgress(utime, T, 0.04));
+  };
+  const auto nextHeartbeats = [&] {
+    const int before = heartbeats;
+    return bus.spinUntil([&] { return heartbeats >= before + 2; }, 5);
+  };
+  frame(60'000'000);
+  ASSERT_TRUE(bus.spinUntil([&] { return plan.utime == 60'000'000 && plan.num_waypoints > 0; }, 10));
+
+  bus.publish("PART_POSE", test::cubePose(1'000'000, T));
+  frame(60'033'000);
+  ASSERT_TRUE(nextHeartbeats());
+  EXPECT_EQ(last.dropped, 1);
+  EXPECT_EQ(testutil::heartbeatStat(last, "clock_restarts"), 0);
+
+  frame(1'033'000);  // the log from its start
+  frame(1'066'000);
+  ASSERT_TRUE(bus.spinUntil([&] { return plan.utime <= 1'066'000 && plan.num_waypoints > 0; }, 10))
+      << "the last plan is from utime " << plan.utime << ": " << plan.reason;
+  ASSERT_TRUE(nextHeartbeats());
+  EXPECT_EQ(last.dropped, 2);
+  EXPECT_EQ(testutil::heartbeatStat(last, "clock_restarts"), 1);
+  EXPECT_EQ(last.state, +heartbeat_t::RUNNING) << last.state_reason;
+  EXPECT_EQ(process_.terminate(), 0);
+}
+
 // A driver refuses plans until it has heard the planner's heartbeat. One that starts after the
 // planner hears it at once: the planner answers the first ROBOT_STATE after a silence with a
 // heartbeat, long before its next tick (10 s here), and not every ROBOT_STATE.
