@@ -22,6 +22,7 @@
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/node/heartbeat.hpp"
 #include "depowder/node/shutdown.hpp"
 #include "depowder/nozzle_plan_t.hpp"
 #include "depowder/part_pose_t.hpp"
@@ -69,10 +70,8 @@ std::int64_t counter(const std::map<std::string, heartbeat_t>& processes, const 
                      const std::string& name) {
   const auto it = processes.find(process);
   if (it == processes.end()) return -1;
-  const heartbeat_t& h = it->second;
-  for (int k = 0; k < h.num_stats; ++k)
-    if (h.stat_names[k] == name) return static_cast<std::int64_t>(h.stat_values[k]);
-  return -1;
+  const double v = node::heartbeatStat(it->second, name);
+  return std::isnan(v) ? -1 : static_cast<std::int64_t>(v);
 }
 
 int usage(const std::string& error = "") {

@@ -1,6 +1,7 @@
 // depowder-status: a live table of every process's heartbeat (state, counters, CPU, memory, and
 // how far its host's clock is from this one's).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -9,6 +10,7 @@
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/node/heartbeat.hpp"
 #include "depowder/node/shutdown.hpp"
 
 namespace {
@@ -107,11 +109,10 @@ int main(int argc, char** argv) {
       std::map<std::string, std::string> kinds;  // cell process -> each one running
       for (const auto& [key, heard] : last) {
         if ((now - heard.arrived_utime) * 1e-6 > kLiveS || heard.h.state == depowder::heartbeat_t::STOPPING) continue;
-        for (std::size_t i = 0; i < heard.h.stat_names.size() && i < heard.h.stat_values.size(); ++i)
-          if (heard.h.stat_names[i] == "cell_model") {
-            std::string& who = models[heard.h.stat_values[i]];
-            who += (who.empty() ? "" : ", ") + key;
-          }
+        if (const double model = depowder::node::heartbeatStat(heard.h, "cell_model"); !std::isnan(model)) {
+          std::string& who = models[model];
+          who += (who.empty() ? "" : ", ") + key;
+        }
         for (const char* kind : kOnePerCell)
           if (heard.h.process == kind) kinds[kind] += (kinds[kind].empty() ? "" : ", ") + key;
       }

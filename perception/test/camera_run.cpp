@@ -10,14 +10,14 @@
 
 #include "depowder/child_process.hpp"
 #include "depowder/node/convert.hpp"
-#include "depowder/test_messages.hpp"
+#include "depowder/node/heartbeat.hpp"
 #include "depth_msg.hpp"
 
 namespace depowder::perception::testing {
 
 const char* const kListenUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
 
-double CameraRunResult::stat(const std::string& name) const { return testutil::heartbeatStat(last_heartbeat, name); }
+double CameraRunResult::stat(const std::string& name) const { return node::heartbeatStat(last_heartbeat, name); }
 
 CameraRunResult runCamera(const CameraRunConfig& config) {
   using Clock = std::chrono::steady_clock;

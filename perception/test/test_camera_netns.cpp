@@ -12,9 +12,9 @@
 #include "camera_run.hpp"
 #include "depowder/child_process.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/node/heartbeat.hpp"
 #include "depowder/perception/camera_proxy.hpp"
 #include "depowder/stats.hpp"
-#include "depowder/test_messages.hpp"
 #include "synthetic.hpp"
 
 using namespace depowder;
@@ -295,7 +295,7 @@ TEST(CameraNetns, RecordedScansPlayInOrderPastACorruptFile) {
   EXPECT_LT((decoded->at(0) - Eigen::Vector3d(0.0525, 0.0525, 0.0525)).norm(), 0.0005);
   EXPECT_NE(readFile(log).find("2.pcd: not a PCD file (no DATA line in the header)"), std::string::npos)
       << readFile(log);
-  EXPECT_EQ(testutil::heartbeatStat(last, "dropped_unreadable"), 1);
+  EXPECT_EQ(node::heartbeatStat(last, "dropped_unreadable"), 1);
   fs::remove_all(dir);
   fs::remove(log);
 }

@@ -11,6 +11,7 @@
 #include "cube_messages.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
+#include "depowder/node/heartbeat.hpp"
 #include "depowder/nozzle_plan_t.hpp"
 #include "depowder/process_under_test.hpp"
 #include "depowder/robot_state_t.hpp"
@@ -100,7 +101,7 @@ TEST_F(PlannerProcess, ALoneInputFarBehindIsRefusedTwoInARowStartOver) {
   frame(60'033'000);
   ASSERT_TRUE(nextHeartbeats());
   EXPECT_EQ(last.dropped, 1);
-  EXPECT_EQ(testutil::heartbeatStat(last, "clock_restarts"), 0);
+  EXPECT_EQ(node::heartbeatStat(last, "clock_restarts"), 0);
 
   frame(1'033'000);  // the log from its start
   frame(1'066'000);
@@ -108,7 +109,7 @@ TEST_F(PlannerProcess, ALoneInputFarBehindIsRefusedTwoInARowStartOver) {
       << "the last plan is from utime " << plan.utime << ": " << plan.reason;
   ASSERT_TRUE(nextHeartbeats());
   EXPECT_EQ(last.dropped, 2);
-  EXPECT_EQ(testutil::heartbeatStat(last, "clock_restarts"), 1);
+  EXPECT_EQ(node::heartbeatStat(last, "clock_restarts"), 1);
   EXPECT_EQ(last.state, +heartbeat_t::RUNNING) << last.state_reason;
   EXPECT_EQ(process_.terminate(), 0);
 }

@@ -126,9 +126,7 @@ int main(int argc, char** argv) {
                                  section.driver.safety.planner_heartbeat_timeout_s);
     bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& msg, const std::string&) {
       if (msg.process != opt.planner_process) return;
-      double arm_model = std::nan("");
-      for (std::size_t i = 0; i < msg.stat_names.size() && i < msg.stat_values.size(); ++i)
-        if (msg.stat_names[i] == "arm_model") arm_model = msg.stat_values[i];
+      const double arm_model = node::heartbeatStat(msg, "arm_model");
       const std::string who = msg.host + ":" + std::to_string(msg.pid);
       driver.plannerHeartbeat(
           planners.heard(who, arm_model, msg.state == heartbeat_t::STOPPING, robot::bcap::monotonicNs() * 1e-9));

@@ -15,9 +15,9 @@
 #include "depowder/mesh.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/node/heartbeat.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/process_under_test.hpp"
-#include "depowder/test_messages.hpp"
 #include "scene.hpp"
 
 namespace {
@@ -97,7 +97,7 @@ TEST_F(TrackerProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   const int before = heartbeats;
   ASSERT_TRUE(bus.spinUntil([&] { return heartbeats >= before + 2; }, 5));
   EXPECT_GE(last_heartbeat.decode_errors, 1);
-  EXPECT_GT(testutil::heartbeatStat(last_heartbeat, "frame_ms_p50"), 0);
+  EXPECT_GT(node::heartbeatStat(last_heartbeat, "frame_ms_p50"), 0);
 
   // 4. SIGTERM: a clean exit.
   EXPECT_EQ(process_.terminate(), 0);

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -19,6 +20,7 @@
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/node/heartbeat.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/progress_t.hpp"
@@ -291,9 +293,8 @@ TEST_F(ViewerProcess, LiveWindowDrawsWhatItHears) {
   ASSERT_TRUE(spinUntil([&] { return heartbeats_ > 0 || !viewer->running(); }, 20)) << log();
   std::int64_t seq = 0;
   auto rendered = [&] {
-    for (std::size_t i = 0; i < heartbeat_.stat_names.size(); ++i)
-      if (heartbeat_.stat_names[i] == "frames_rendered") return heartbeat_.stat_values[i];
-    return 0.0;
+    const double n = node::heartbeatStat(heartbeat_, "frames_rendered");
+    return std::isnan(n) ? 0.0 : n;
   };
   const double before = rendered();
   EXPECT_TRUE(spinUntil([&] { return rendered() >= before + 5 || !viewer->running(); }, 3,

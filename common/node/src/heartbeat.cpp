@@ -3,9 +3,17 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <cmath>
+
 #include "depowder/node/convert.hpp"
 
 namespace depowder::node {
+
+double heartbeatStat(const heartbeat_t& h, const std::string& name) {
+  for (std::size_t i = 0; i < h.stat_names.size() && i < h.stat_values.size(); ++i)
+    if (h.stat_names[i] == name) return h.stat_values[i];
+  return std::nan("");
+}
 
 std::string hostName() {
   char buf[256] = {0};

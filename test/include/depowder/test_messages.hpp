@@ -1,27 +1,18 @@
-// Messages the process and tool tests send or record as a cell process would, writing one to
-// an LCM log as lcm-logger would, and reading a heartbeat's stats.
+// Messages the process and tool tests send or record as a cell process would, and writing one to
+// an LCM log as lcm-logger would.
 #pragma once
 
-#include <cmath>
 #include <cstdint>
 #include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <vector>
 
 #include "depowder/geometry.hpp"
-#include "depowder/heartbeat_t.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/progress_t.hpp"
 
 namespace depowder::testutil {
-
-/// The stat `name` of a heartbeat, NaN if it has none.
-inline double heartbeatStat(const heartbeat_t& h, const std::string& name) {
-  for (std::size_t i = 0; i < h.stat_names.size() && i < h.stat_values.size(); ++i)
-    if (h.stat_names[i] == name) return h.stat_values[i];
-  return std::nan("");
-}
 
 /// CU-ICP's PART_POSE for `part` at T_cell_part, TRACKING, with no template.
 inline part_pose_t trackingPose(const std::string& part, std::int64_t utime, const Pose& T_cell_part) {

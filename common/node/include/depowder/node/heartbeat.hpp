@@ -36,6 +36,9 @@ class Heartbeat {
   std::map<std::string, double> stats_;
 };
 
+/// The stat `name` of a heard heartbeat, NaN if it has none.
+double heartbeatStat(const heartbeat_t& h, const std::string& name);
+
 /// Host name of this machine.
 std::string hostName();
 
