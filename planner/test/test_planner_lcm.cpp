@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
+#include <memory>
 
 #include "cube_messages.hpp"
 #include "depowder/heartbeat_t.hpp"
@@ -21,38 +22,45 @@ namespace {
 
 const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 
+// The planner on the cube cell, its plans and heartbeats heard from its first heartbeat on.
 class PlannerProcess : public ::testing::Test {
  protected:
   void SetUp() override {
     process_.start({"--cell", process_.write("cell.yaml", test::cubeCellYaml("planner: {heartbeat_period: 0.2}\n")),
                     "--url", kUrl, "--prefix", process_.prefix()});
+    bus_ = std::make_unique<node::Bus>(kUrl, process_.prefix());
+    bus_->subscribe<nozzle_plan_t>("NOZZLE_PLAN",
+                                   [&](const nozzle_plan_t& m, const std::string&) { plans_.push_back(m); });
+    bus_->subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
+      if (h.process == "depowder-planner") last_ = h, ++heartbeats_;
+    });
+    ASSERT_TRUE(bus_->spinUntil([&] { return heartbeats_ > 0; }, 10)) << "no heartbeat from depowder-planner";
+  }
+  /// Waits for two more heartbeats, so that the last one counts what was sent before.
+  bool twoMoreHeartbeats() {
+    const int before = heartbeats_;
+    return bus_->spinUntil([&] { return heartbeats_ >= before + 2; }, 5);
   }
   testutil::ProcessUnderTest process_{"depowder-planner"};
+  std::unique_ptr<node::Bus> bus_;
+  std::vector<nozzle_plan_t> plans_;
+  heartbeat_t last_{};
+  int heartbeats_ = 0;
+  const Pose T_ = makePoseRpy({0.01, 0.0, 0.03}, 0, 0, 0.2);
 };
 
 TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
-  node::Bus bus(kUrl, process_.prefix());
-  std::vector<nozzle_plan_t> plans;
-  heartbeat_t last{};
-  int heartbeats = 0;
-  bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) { plans.push_back(m); });
-  bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
-    if (h.process == "depowder-planner") last = h, ++heartbeats;
-  });
-  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-planner";
-
   // 1. Bad input first: a NaN pose and garbage on PROGRESS. Counted; no plan with waypoints.
   part_pose_t bad = test::cubePose(1000, Pose::Identity());
   bad.T_cell_part.position[2] = std::nan("");
-  bus.publish("PART_POSE", bad);
-  bus.publishRaw("PROGRESS", "not progress", 12);
+  bus_->publish("PART_POSE", bad);
+  bus_->publishRaw("PROGRESS", "not progress", 12);
 
   // 2. A pose and its progress: a plan stamped with that frame, waypoints with IK solutions.
-  const Pose T = makePoseRpy({0.01, 0.0, 0.03}, 0, 0, 0.2);
-  bus.publish("PART_POSE", test::cubePose(2000, T));
-  bus.publish("PROGRESS", test::cubeProgress(2000, T, 0.04));
-  ASSERT_TRUE(bus.spinUntil([&] { return !plans.empty() && plans.back().num_waypoints > 0; }, 10));
-  const nozzle_plan_t& plan = plans.back();
+  bus_->publish("PART_POSE", test::cubePose(2000, T_));
+  bus_->publish("PROGRESS", test::cubeProgress(2000, T_, 0.04));
+  ASSERT_TRUE(bus_->spinUntil([&] { return !plans_.empty() && plans_.back().num_waypoints > 0; }, 10));
+  const nozzle_plan_t& plan = plans_.back();
   EXPECT_EQ(plan.utime, 2000);
   EXPECT_EQ(plan.part, "cube");
   EXPECT_EQ(plan.phase, +progress_t::PHASE_VACUUM_TRACKED);
@@ -60,13 +68,12 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   int vacuum = 0;
   for (const waypoint_t& w : plan.waypoints) vacuum += w.tool == waypoint_t::TOOL_VACUUM;
   EXPECT_GT(vacuum, 20);
-  for (std::size_t i = 0; i + 1 < plans.size(); ++i) EXPECT_EQ(plans[i].num_waypoints, 0) << "only holds before";
+  for (std::size_t i = 0; i + 1 < plans_.size(); ++i) EXPECT_EQ(plans_[i].num_waypoints, 0) << "only holds before";
 
-  const int before = heartbeats;
-  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats >= before + 2; }, 5));
-  EXPECT_GE(last.decode_errors, 1);
-  EXPECT_GE(last.dropped, 1);
-  EXPECT_EQ(last.state, +heartbeat_t::RUNNING) << last.state_reason;
+  ASSERT_TRUE(twoMoreHeartbeats());
+  EXPECT_GE(last_.decode_errors, 1);
+  EXPECT_GE(last_.dropped, 1);
+  EXPECT_EQ(last_.state, +heartbeat_t::RUNNING) << last_.state_reason;
 
   // 3. SIGTERM: a clean exit.
   EXPECT_EQ(process_.terminate(), 0);
@@ -76,41 +83,33 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
 // nothing starts over; a log played again (its frame's PART_POSE refused, its PROGRESS taken)
 // starts the planning over, counted in the heartbeat, and plans come from the new clock.
 TEST_F(PlannerProcess, ALoneInputFarBehindIsRefusedTwoInARowStartOver) {
-  node::Bus bus(kUrl, process_.prefix());
-  nozzle_plan_t plan{};
-  heartbeat_t last{};
-  int heartbeats = 0;
-  bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) { plan = m; });
-  bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& h, const std::string&) {
-    if (h.process == "depowder-planner") last = h, ++heartbeats;
-  });
-  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats > 0; }, 10)) << "no heartbeat from depowder-planner";
-  const Pose T = makePoseRpy({0.01, 0.0, 0.03}, 0, 0, 0.2);
   const auto frame = [&](std::int64_t utime) {
-    bus.publish("PART_POSE", test::cubePose(utime, T));
-    bus.publish("PROGRESS", test::cubeProgress(utime, T, 0.04));
+    bus_->publish("PART_POSE", test::cubePose(utime, T_));
+    bus_->publish("PROGRESS", test::cubeProgress(utime, T_, 0.04));
   };
-  const auto nextHeartbeats = [&] {
-    const int before = heartbeats;
-    return bus.spinUntil([&] { return heartbeats >= before + 2; }, 5);
+  // The newest plan has waypoints and comes from a frame stamped at most `utime`.
+  const auto plannedBy = [&](std::int64_t utime) {
+    return bus_->spinUntil(
+        [&] { return !plans_.empty() && plans_.back().utime <= utime && plans_.back().num_waypoints > 0; }, 10);
   };
   frame(60'000'000);
-  ASSERT_TRUE(bus.spinUntil([&] { return plan.utime == 60'000'000 && plan.num_waypoints > 0; }, 10));
+  ASSERT_TRUE(plannedBy(60'000'000));
+  EXPECT_EQ(plans_.back().utime, 60'000'000);
 
-  bus.publish("PART_POSE", test::cubePose(1'000'000, T));
+  bus_->publish("PART_POSE", test::cubePose(1'000'000, T_));
   frame(60'033'000);
-  ASSERT_TRUE(nextHeartbeats());
-  EXPECT_EQ(last.dropped, 1);
-  EXPECT_EQ(node::heartbeatStat(last, "clock_restarts"), 0);
+  ASSERT_TRUE(twoMoreHeartbeats());
+  EXPECT_EQ(last_.dropped, 1);
+  EXPECT_EQ(node::heartbeatStat(last_, "clock_restarts"), 0);
 
   frame(1'033'000);  // the log from its start
   frame(1'066'000);
-  ASSERT_TRUE(bus.spinUntil([&] { return plan.utime <= 1'066'000 && plan.num_waypoints > 0; }, 10))
-      << "the last plan is from utime " << plan.utime << ": " << plan.reason;
-  ASSERT_TRUE(nextHeartbeats());
-  EXPECT_EQ(last.dropped, 2);
-  EXPECT_EQ(node::heartbeatStat(last, "clock_restarts"), 1);
-  EXPECT_EQ(last.state, +heartbeat_t::RUNNING) << last.state_reason;
+  ASSERT_TRUE(plannedBy(1'066'000)) << "the last plan is from utime " << plans_.back().utime << ": "
+                                    << plans_.back().reason;
+  ASSERT_TRUE(twoMoreHeartbeats());
+  EXPECT_EQ(last_.dropped, 2);
+  EXPECT_EQ(node::heartbeatStat(last_, "clock_restarts"), 1);
+  EXPECT_EQ(last_.state, +heartbeat_t::RUNNING) << last_.state_reason;
   EXPECT_EQ(process_.terminate(), 0);
 }
 
