@@ -10,13 +10,6 @@ namespace depowder::perception {
 
 namespace {
 std::int64_t micros(double seconds) { return static_cast<std::int64_t>(seconds * 1e6); }
-
-/// How far `utime`, arriving at `arrival`, runs ahead of `reference`, which arrived at
-/// `reference_arrival`, beyond the wall time between them: us, < 0 behind. Utimes are in 0 to
-/// 2^53 (the camera proxy refuses others) and arrivals are the wall clock: no overflow.
-std::int64_t drift(std::int64_t reference, std::int64_t reference_arrival, std::int64_t utime, std::int64_t arrival) {
-  return utime - reference - std::max<std::int64_t>(0, arrival - reference_arrival);
-}
 }  // namespace
 
 FrameMerger::FrameMerger(MergerConfig config, std::vector<std::string> known_cameras) : config_(config) {
@@ -42,10 +35,11 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // Far ahead (the rule in frame_merger.hpp): refused unless it confirms the camera's frame
   // refused before. A refused frame changes no time step, lag or staleness.
   const std::int64_t ahead =
-      newest_utime_ == INT64_MIN ? 0 : drift(newest_utime_, newest_arrival_, frame.utime, arrival);
+      newest_utime_ == INT64_MIN ? 0 : runsAhead(newest_utime_, newest_arrival_, frame.utime, arrival);
   if (ahead > kClockJumpBack) {
-    const bool confirmed = cam.ahead_utime != INT64_MIN && std::llabs(drift(cam.ahead_utime, cam.ahead_arrival,
-                                                                            frame.utime, arrival)) <= kClockJumpBack;
+    const bool confirmed =
+        cam.ahead_utime != INT64_MIN &&
+        std::llabs(runsAhead(cam.ahead_utime, cam.ahead_arrival, frame.utime, arrival)) <= kClockJumpBack;
     if (!confirmed) {
       cam.ahead_utime = frame.utime;
       cam.ahead_arrival = arrival;

@@ -310,7 +310,7 @@ int main(int argc, char** argv) {
                                                                : hr.min + 0.1 * (hr.max - hr.min);
         PoseInput p{t.name, utime, phase == Phase::kVacuumBuried ? t.T_cell_part : estimate(t.T_cell_part, rng),
                     TrackStatus::kTracking, ""};
-        planner.onPose(p);
+        planner.onPose(p, utime);  // arriving as stamped
         ProgressInput g;
         g.part = t.name;
         g.utime = utime;
@@ -321,7 +321,7 @@ int main(int argc, char** argv) {
         g.eta = (hr.max - powder) / (hr.max - hr.min);
         g.contour = test::syntheticContour(transformed(t.mesh, t.T_cell_part), powder);
         g.status = ProgressStatus::kOk;
-        planner.onProgress(g);
+        planner.onProgress(g, utime);
       }
       RobotInput r;
       r.utime = utime;

@@ -9,6 +9,7 @@
 #include "depowder/node/args.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
 #include "depowder/node/heartbeat.hpp"
 #include "depowder/node/shutdown.hpp"
 #include "planner_node.hpp"
@@ -53,9 +54,10 @@ int main(int argc, char** argv) {
       std::cerr << "depowder-planner: " << (r.ok() ? "" : "rejected: ") << r.reason << std::endl;
       last_said = r.reason;
     };
-    bus.subscribe<part_pose_t>("PART_POSE", [&](const part_pose_t& m, const std::string&) { report(logic.onPose(m)); });
-    bus.subscribe<progress_t>("PROGRESS",
-                              [&](const progress_t& m, const std::string&) { report(logic.onProgress(m)); });
+    bus.subscribe<part_pose_t>(
+        "PART_POSE", [&](const part_pose_t& m, const std::string&) { report(logic.onPose(m, node::nowUtime())); });
+    bus.subscribe<progress_t>(
+        "PROGRESS", [&](const progress_t& m, const std::string&) { report(logic.onProgress(m, node::nowUtime())); });
     // A driver that has just started (or come back) refuses plans until it has heard this
     // planner's heartbeat: its first ROBOT_STATE after a silence gets one at once, ahead of the
     // plan it leads to, rather than at the next tick.

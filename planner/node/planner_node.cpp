@@ -129,7 +129,7 @@ InputResult PlannerNode::count(InputResult r) {
   return r;
 }
 
-InputResult PlannerNode::onPose(const part_pose_t& msg) {
+InputResult PlannerNode::onPose(const part_pose_t& msg, std::int64_t arrival) {
   std::string why;
   const std::optional<Pose> T = node::fromMsg(msg.T_cell_part, &why);
   if (!T) return count({InputStatus::kInvalidPose, "PART_POSE of " + msg.part + ": " + why});
@@ -142,10 +142,10 @@ InputResult PlannerNode::onPose(const part_pose_t& msg) {
   in.T_cell_part = *T;
   in.status = static_cast<TrackStatus>(msg.status);
   in.status_reason = msg.status_reason;
-  return count(planner_.onPose(in));
+  return count(planner_.onPose(in, arrival));
 }
 
-InputResult PlannerNode::onProgress(const progress_t& msg) {
+InputResult PlannerNode::onProgress(const progress_t& msg, std::int64_t arrival) {
   if (msg.status < progress_t::OK || msg.status > progress_t::NO_CONTOUR)
     return count({InputStatus::kInvalidValue,
                   "PROGRESS of " + msg.part + ": unknown status " + std::to_string(static_cast<int>(msg.status))});
@@ -163,7 +163,7 @@ InputResult PlannerNode::onProgress(const progress_t& msg) {
   in.h_min = msg.h_min;
   in.contour.reserve(msg.contour.size());
   for (const auto& p : msg.contour) in.contour.emplace_back(p[0], p[1], p[2]);
-  return count(planner_.onProgress(in));
+  return count(planner_.onProgress(in, arrival));
 }
 
 InputResult PlannerNode::onRobot(const robot_state_t& msg) {

@@ -35,9 +35,10 @@ class PlannerNode {
   /// Loads every part's mesh (throws MeshError naming the file).
   PlannerNode(const node::CellConfig& cell, const PlannerNodeOptions& options);
 
-  /// Each returns the input's status; a rejected message changes nothing.
-  InputResult onPose(const part_pose_t& msg);
-  InputResult onProgress(const progress_t& msg);
+  /// Each returns the input's status; a rejected message changes nothing. `arrival`: when it
+  /// arrived, us on the wall clock (CellPlanner::onPose).
+  InputResult onPose(const part_pose_t& msg, std::int64_t arrival);
+  InputResult onProgress(const progress_t& msg, std::int64_t arrival);
   InputResult onRobot(const robot_state_t& msg);
   /// A plan to publish, if there is one now.
   std::optional<nozzle_plan_t> step();

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 
 #include "depowder/clock.hpp"
@@ -98,20 +99,20 @@ int findPart(const States& states, const std::string& name) {
 
 }  // namespace
 
-InputResult CellPlanner::onPose(const PoseInput& in) {
+InputResult CellPlanner::onPose(const PoseInput& in, std::int64_t arrival) {
   const int i = findPart(states_, in.part);
   if (i < 0) return {InputStatus::kUnknownPart, "PART_POSE for unknown part '" + in.part + "'"};
   if (!isValidPose(in.T_cell_part, 1e-6))
     return {InputStatus::kInvalidPose,
             "PART_POSE of " + in.part + " is not a valid rigid transform (NaN or not orthonormal)"};
   if (!utimeInRange(in.utime)) return outOfRange("PART_POSE of " + in.part, in.utime);
-  const InputResult clock = checkClock("PART_POSE", in.part, in.utime);
+  const InputResult clock = checkClock("PART_POSE", in.part, in.utime, arrival);
   if (!clock.ok()) return clock;
   PartState& s = states_[i];
   if (s.pose && in.utime < s.pose->utime)
     return {InputStatus::kOutOfOrder, "PART_POSE of " + in.part + " is older than the last one"};
   s.pose = in;
-  newest_utime_ = std::max(newest_utime_, in.utime);
+  takeNewest(in.utime, arrival);
   // Motion watch (replan.settle_s) from the first tracked pose on: the jump from the printed pose
   // to the first ICP estimate is not a motion.
   if (in.status == TrackStatus::kTracking || in.status == TrackStatus::kDegraded) {
@@ -127,7 +128,7 @@ InputResult CellPlanner::onPose(const PoseInput& in) {
   return clock;
 }
 
-InputResult CellPlanner::onProgress(const ProgressInput& in) {
+InputResult CellPlanner::onProgress(const ProgressInput& in, std::int64_t arrival) {
   const int i = findPart(states_, in.part);
   if (i < 0) return {InputStatus::kUnknownPart, "PROGRESS for unknown part '" + in.part + "'"};
   // Heights are only meaningful with a contour (the estimator sends NaN without one).
@@ -156,7 +157,7 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
     return {InputStatus::kInvalidContour, "PROGRESS of " + in.part + " says OK but its contour has " +
                                               std::to_string(inside.size()) + " points" +
                                               (left_out ? " (" + outside + ")" : "")};
-  const InputResult clock = checkClock("PROGRESS", in.part, in.utime);
+  const InputResult clock = checkClock("PROGRESS", in.part, in.utime, arrival);
   if (!clock.ok()) return clock;
   std::string note = clock.reason;
   PartState& s = states_[i];
@@ -165,7 +166,7 @@ InputResult CellPlanner::onProgress(const ProgressInput& in) {
   s.progress = in;
   s.progress->contour = std::move(inside);
   if (in.status == ProgressStatus::kOk) s.powder = in.h_pow;
-  newest_utime_ = std::max(newest_utime_, in.utime);
+  takeNewest(in.utime, arrival);
   newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
   if (left_out) note += (note.empty() ? "" : "; ") + ("PROGRESS of " + in.part + ": " + outside);
   return {InputStatus::kAccepted, note};
@@ -185,37 +186,60 @@ InputResult CellPlanner::onRobot(const RobotInput& in) {
   return {};
 }
 
-InputResult CellPlanner::checkClock(const char* what, const std::string& part, std::int64_t utime) {
-  if (newest_utime_ == 0 || !clockWentBack(newest_utime_, utime)) {
+InputResult CellPlanner::checkClock(const char* what, const std::string& part, std::int64_t utime,
+                                    std::int64_t arrival) {
+  const std::string said = what + (" of " + part);
+  char buf[80];
+  if (newest_utime_ > 0 && clockWentBack(newest_utime_, utime)) {
+    ahead_utime_ = -1;
+    std::snprintf(buf, sizeof buf, " is %.1f s behind the newest input",
+                  static_cast<double>(behind(newest_utime_, utime)) * 1e-6);
+    // One alone is a bad stamp, refused; the clock went back when the input after it is as far
+    // behind and runs with it (not itself far behind it).
+    if (back_utime_ < 0 || clockWentBack(back_utime_, utime)) {
+      back_utime_ = utime;
+      return {InputStatus::kOutOfOrder,
+              said + buf + ": refused, unless the next input confirms that the frames' clock went back"};
+    }
+    for (PartState& s : states_) {
+      PartState fresh;
+      fresh.spec = std::move(s.spec);
+      s = std::move(fresh);
+    }
+    newest_utime_ = newest_progress_utime_ = active_utime_ = 0;
+    cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
+    active_is_cycle_ = false;
     back_utime_ = -1;
+    ++clock_restarts_;
+    return {InputStatus::kAccepted,
+            said + buf +
+                ", as was the one before it: the frames' clock went back (a log played again, or the cameras "
+                "restarted); planning starts over"};
+  }
+  back_utime_ = -1;
+  const std::int64_t ahead = newest_utime_ > 0 ? runsAhead(newest_utime_, newest_arrival_, utime, arrival) : 0;
+  if (ahead <= kClockJumpBack) {
+    ahead_utime_ = -1;
     return {};
   }
-  char buf[64];
-  std::snprintf(buf, sizeof buf, " is %.1f s behind the newest input",
-                static_cast<double>(behind(newest_utime_, utime)) * 1e-6);
-  const std::string said = what + (" of " + part) + buf;
-  // One alone is a bad stamp, refused; the clock went back when the input after it is as far
-  // behind and runs with it (not itself far behind it).
-  const bool confirmed = back_utime_ >= 0 && !clockWentBack(back_utime_, utime);
-  if (!confirmed) {
-    back_utime_ = utime;
+  std::snprintf(buf, sizeof buf, " is %.1f s ahead of the newest input and the time since",
+                static_cast<double>(ahead) * 1e-6);
+  // Alike: one alone is a bad stamp, refused; the clock jumped forward when the input after it
+  // runs with it.
+  if (ahead_utime_ < 0 || std::llabs(runsAhead(ahead_utime_, ahead_arrival_, utime, arrival)) > kClockJumpBack) {
+    ahead_utime_ = utime;
+    ahead_arrival_ = arrival;
     return {InputStatus::kOutOfOrder,
-            said + ": refused, unless the next input confirms that the frames' clock went back"};
+            said + buf + ": refused, unless the next input confirms that the frames' clock jumped forward"};
   }
-  for (PartState& s : states_) {
-    PartState fresh;
-    fresh.spec = std::move(s.spec);
-    s = std::move(fresh);
-  }
-  newest_utime_ = newest_progress_utime_ = active_utime_ = 0;
-  cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
-  active_is_cycle_ = false;
-  back_utime_ = -1;
-  ++clock_restarts_;
-  return {InputStatus::kAccepted,
-          said +
-              ", as was the one before it: the frames' clock went back (a log played again, or the cameras "
-              "restarted); planning starts over"};
+  ahead_utime_ = -1;
+  return {InputStatus::kAccepted, said + buf + ", as was the one before it: the frames' clock jumped forward"};
+}
+
+void CellPlanner::takeNewest(std::int64_t utime, std::int64_t arrival) {
+  if (utime <= newest_utime_) return;
+  newest_utime_ = utime;
+  newest_arrival_ = arrival;
 }
 
 void CellPlanner::updateWorld() {

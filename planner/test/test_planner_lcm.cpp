@@ -41,6 +41,16 @@ class PlannerProcess : public ::testing::Test {
     const int before = heartbeats_;
     return bus_->spinUntil([&] { return heartbeats_ >= before + 2; }, 5);
   }
+  /// One frame's PART_POSE and PROGRESS, stamped `utime`.
+  void frame(std::int64_t utime) {
+    bus_->publish("PART_POSE", test::cubePose(utime, T_));
+    bus_->publish("PROGRESS", test::cubeProgress(utime, T_, 0.04));
+  }
+  /// Waits for the newest plan to have waypoints and come from a frame stamped at most `utime`.
+  bool plannedBy(std::int64_t utime) {
+    return bus_->spinUntil(
+        [&] { return !plans_.empty() && plans_.back().utime <= utime && plans_.back().num_waypoints > 0; }, 10);
+  }
   testutil::ProcessUnderTest process_{"depowder-planner"};
   std::unique_ptr<node::Bus> bus_;
   std::vector<nozzle_plan_t> plans_;
@@ -83,15 +93,6 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
 // nothing starts over; a log played again (its frame's PART_POSE refused, its PROGRESS taken)
 // starts the planning over, counted in the heartbeat, and plans come from the new clock.
 TEST_F(PlannerProcess, ALoneInputFarBehindIsRefusedTwoInARowStartOver) {
-  const auto frame = [&](std::int64_t utime) {
-    bus_->publish("PART_POSE", test::cubePose(utime, T_));
-    bus_->publish("PROGRESS", test::cubeProgress(utime, T_, 0.04));
-  };
-  // The newest plan has waypoints and comes from a frame stamped at most `utime`.
-  const auto plannedBy = [&](std::int64_t utime) {
-    return bus_->spinUntil(
-        [&] { return !plans_.empty() && plans_.back().utime <= utime && plans_.back().num_waypoints > 0; }, 10);
-  };
   frame(60'000'000);
   ASSERT_TRUE(plannedBy(60'000'000));
   EXPECT_EQ(plans_.back().utime, 60'000'000);
@@ -109,6 +110,23 @@ TEST_F(PlannerProcess, ALoneInputFarBehindIsRefusedTwoInARowStartOver) {
   ASSERT_TRUE(twoMoreHeartbeats());
   EXPECT_EQ(last_.dropped, 2);
   EXPECT_EQ(node::heartbeatStat(last_, "clock_restarts"), 1);
+  EXPECT_EQ(last_.state, +heartbeat_t::RUNNING) << last_.state_reason;
+  EXPECT_EQ(process_.terminate(), 0);
+}
+
+// A lone pose stamped a minute ahead of the frames and of the time since is refused and counted,
+// and the frames after it go on with nothing started over (it used to be taken, and the next two
+// inputs, far behind it, made the planning start over).
+TEST_F(PlannerProcess, ALoneInputFarAheadIsRefusedAndNothingStartsOver) {
+  frame(60'000'000);
+  ASSERT_TRUE(plannedBy(60'000'000));
+  bus_->publish("PART_POSE", test::cubePose(120'000'000, T_));
+  frame(60'033'000);
+  frame(60'066'000);
+  ASSERT_TRUE(twoMoreHeartbeats());
+  EXPECT_EQ(last_.dropped, 1);
+  EXPECT_EQ(node::heartbeatStat(last_, "clock_restarts"), 0);
+  for (const nozzle_plan_t& p : plans_) EXPECT_LE(p.utime, 60'066'000) << "a plan from the future: " << p.reason;
   EXPECT_EQ(last_.state, +heartbeat_t::RUNNING) << last_.state_reason;
   EXPECT_EQ(process_.terminate(), 0);
 }

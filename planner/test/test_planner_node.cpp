@@ -59,13 +59,13 @@ class NodeTest : public ::testing::Test {
   node::CellConfig cell = node::loadCellFromString(test::cubeCellYaml(), "test.yaml");
   PlannerNodeOptions options = readPlannerOptions(cell);
   PlannerNode node{cell, options};
-  std::int64_t utime = 5000000;
+  std::int64_t utime = 5000000;  ///< also when the messages arrive
 };
 
 TEST_F(NodeTest, PlanOnTheWireCarriesIkSolutionsAndTheFrameUtime) {
   const Pose T = makePoseRpy({0.02, 0.01, 0.03}, 0, 0, 0.3);
-  ASSERT_TRUE(node.onPose(test::cubePose(utime, T)).ok());
-  ASSERT_TRUE(node.onProgress(test::cubeProgress(utime, T, 0.04)).ok());
+  ASSERT_TRUE(node.onPose(test::cubePose(utime, T), utime).ok());
+  ASSERT_TRUE(node.onProgress(test::cubeProgress(utime, T, 0.04), utime).ok());
   const auto msg = node.step();
   ASSERT_TRUE(msg);
   EXPECT_EQ(msg->utime, utime);
@@ -90,21 +90,21 @@ TEST_F(NodeTest, PlanOnTheWireCarriesIkSolutionsAndTheFrameUtime) {
 TEST_F(NodeTest, BadMessagesAreRejectedWithAReason) {
   part_pose_t bad = test::cubePose(utime, Pose::Identity());
   bad.T_cell_part.position[0] = std::nan("");
-  const InputResult r = node.onPose(bad);
+  const InputResult r = node.onPose(bad, utime);
   EXPECT_EQ(r.status, InputStatus::kInvalidPose);
   EXPECT_NE(r.reason.find("cube"), std::string::npos) << r.reason;
   part_pose_t unnormalised = test::cubePose(utime, Pose::Identity());
   unnormalised.T_cell_part.orientation[0] = 2.0;
-  EXPECT_EQ(node.onPose(unnormalised).status, InputStatus::kInvalidPose);
+  EXPECT_EQ(node.onPose(unnormalised, utime).status, InputStatus::kInvalidPose);
   progress_t empty = test::cubeProgress(utime, Pose::Identity(), 0.04);
   empty.contour.clear();
   empty.num_contour = 0;
-  const InputResult e = node.onProgress(empty);
+  const InputResult e = node.onProgress(empty, utime);
   EXPECT_EQ(e.status, InputStatus::kInvalidContour);
   EXPECT_NE(e.reason.find("0 points"), std::string::npos) << e.reason;
   progress_t mismatch = test::cubeProgress(utime, Pose::Identity(), 0.04);
   mismatch.num_contour = 3;
-  EXPECT_EQ(node.onProgress(mismatch).status, InputStatus::kInvalidContour);
+  EXPECT_EQ(node.onProgress(mismatch, utime).status, InputStatus::kInvalidContour);
   robot_state_t robot{};
   robot.q[2] = std::nan("");
   EXPECT_EQ(node.onRobot(robot).status, InputStatus::kInvalidValue);
@@ -124,7 +124,7 @@ TEST_F(NodeTest, NoPoseProgressWithNaNHeightsIsAccepted) {
   m.h_pow = m.h_max = m.h_min = std::nan("");
   m.contour.clear();
   m.num_contour = 0;
-  EXPECT_TRUE(node.onProgress(m).ok());
+  EXPECT_TRUE(node.onProgress(m, utime).ok());
 }
 
 }  // namespace

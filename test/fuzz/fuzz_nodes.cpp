@@ -40,15 +40,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (!decoded(m, msg, n)) return;
       for (const part_pose_t& pose : tracker.onPoints(m)) {
         progress.onPose(pose);
-        planner.onPose(pose);
+        planner.onPose(pose, now_us);
       }
       if (std::optional<Cloud> cloud = node::decodeCloud(m)) progress.onPoints(m.utime, std::move(*cloud), now_us);
     } else if (kind == 1) {
       part_pose_t m;
-      if (decoded(m, msg, n)) progress.onPose(m), planner.onPose(m);
+      if (decoded(m, msg, n)) progress.onPose(m), planner.onPose(m, now_us);
     } else if (kind == 2) {
       progress_t m;
-      if (decoded(m, msg, n)) planner.onProgress(m);
+      if (decoded(m, msg, n)) planner.onProgress(m, now_us);
     } else if (kind == 3) {
       robot_state_t m;
       if (decoded(m, msg, n)) planner.onRobot(m);
@@ -56,7 +56,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       nozzle_plan_t m;
       if (decoded(m, msg, n)) progress.onPlan(m);
     }
-    for (const progress_t& p : progress.poll(now_us)) planner.onProgress(p);
+    for (const progress_t& p : progress.poll(now_us)) planner.onProgress(p, now_us);
     planner.step();
   });
   return 0;

@@ -13,9 +13,11 @@
 // arrived is a stamp to doubt: a glitch of its source, or its clock jumped forward. The camera
 // proxy, where a frame's time enters the cell, refuses such a frame unless the same camera's frame
 // before it was refused so and this one runs with it, so one bad stamp never reaches the
-// processes downstream nor makes them start over.
+// processes downstream nor makes them start over. The planner does the same with its PART_POSE
+// and PROGRESS, so a stray message stamped ahead does not either.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 
@@ -53,8 +55,17 @@ inline bool clockWentBack(std::int64_t newest, std::int64_t utime) {
 }
 
 /// Whether `utime` is more than kClockJumpBack ahead of `newest`: stamps alone, for a gap between
-/// two frames. Not the camera proxy's far-ahead rule, which allows the wall time between them too
-/// (a slow camera's frames are seconds apart).
+/// two frames. Not the far-ahead rule, which allows the wall time between them too (a slow
+/// camera's frames are seconds apart): see runsAhead.
 inline bool clockJumpedAhead(std::int64_t newest, std::int64_t utime) { return clockWentBack(utime, newest); }
+
+/// How far `utime`, arriving at `arrival`, runs ahead of `reference`, which arrived at
+/// `reference_arrival`, beyond the wall time between them: us, < 0 behind. The far-ahead rule
+/// refuses an input for which this exceeds kClockJumpBack. Utimes in range (utimeInRange) and
+/// arrivals from the wall clock (us since the epoch): no overflow.
+inline std::int64_t runsAhead(std::int64_t reference, std::int64_t reference_arrival, std::int64_t utime,
+                              std::int64_t arrival) {
+  return utime - reference - std::max<std::int64_t>(0, arrival - reference_arrival);
+}
 
 }  // namespace depowder

@@ -83,13 +83,19 @@ class CellPlanner {
               const PlannerConfig& config = {});
   ~CellPlanner();
 
-  /// A pose or progress older than the part's last is refused (kOutOfOrder). One more than
-  /// kClockJumpBack behind the newest input (depowder/clock.hpp) is refused too, unless the input
-  /// before it was refused so and this one is not as far behind that one: two in a row mean the
-  /// frames' clock went back. Then every pose, progress and time of the old clock is forgotten,
-  /// the parts are planned afresh from this input on, and the result's reason says so.
-  InputResult onPose(const PoseInput& in);
-  InputResult onProgress(const ProgressInput& in);
+  /// `arrival` is when the input arrived, us on the wall clock (the node's; a test's or an
+  /// in-process run's own), for the far-ahead rule.
+  ///
+  /// A pose or progress older than the part's last is refused (kOutOfOrder). So is one more than
+  /// kClockJumpBack behind the newest input (depowder/clock.hpp), unless the input before it was
+  /// refused so and this one is not as far behind that one: two in a row mean the frames' clock
+  /// went back. Then every pose, progress and time of the old clock is forgotten, the parts are
+  /// planned afresh from this input on, and the result's reason says so. One that runs more than
+  /// kClockJumpBack ahead of the newest input and the wall time since it arrived is refused too,
+  /// unless the input before it was refused so and this one runs with it (runsAhead within
+  /// kClockJumpBack): then the frames' clock jumped forward, and it is taken.
+  InputResult onPose(const PoseInput& in, std::int64_t arrival);
+  InputResult onProgress(const ProgressInput& in, std::int64_t arrival);
   /// The robot's clock going back dates the end of the running cycle anew.
   InputResult onRobot(const RobotInput& in);
 
@@ -114,10 +120,14 @@ class CellPlanner {
   std::optional<Plan> refresh(std::int64_t utime);
   bool eligible(int i) const;
   bool cycleFinished() const;
-  /// The clock rule for a pose or progress at `utime` (`what` of `part`): one far behind the newest
-  /// input is refused (kOutOfOrder), unless the input before it was refused so and this one runs
-  /// with it. Then the old clock's inputs and times are forgotten and the result (accepted) says so.
-  InputResult checkClock(const char* what, const std::string& part, std::int64_t utime);
+  /// The clock rules for a pose or progress at `utime`, arriving at `arrival` (`what` of `part`):
+  /// one far behind the newest input, or far ahead of it and the time since, is refused
+  /// (kOutOfOrder), unless the input before it was refused so and this one runs with it. Then the
+  /// result (accepted) says so; for a clock that went back, the old clock's inputs and times are
+  /// forgotten.
+  InputResult checkClock(const char* what, const std::string& part, std::int64_t utime, std::int64_t arrival);
+  /// Takes `utime`, arriving at `arrival`, as the newest input's if it is.
+  void takeNewest(std::int64_t utime, std::int64_t arrival);
   void updateWorld();
 
   PlannerConfig config_;
@@ -127,7 +137,8 @@ class CellPlanner {
   std::vector<PartReport> reports_;
   std::optional<RobotInput> robot_;
   std::int64_t newest_utime_ = 0;  ///< of the poses and progress taken (0: none since the start or the clock went back)
-  std::int64_t newest_progress_utime_ = 0;                                   ///< the last step of a frame's pipeline
+  std::int64_t newest_arrival_ = 0;         ///< when the input of newest_utime_ arrived (wall clock, us)
+  std::int64_t newest_progress_utime_ = 0;  ///< the last step of a frame's pipeline
   std::int64_t cycle_end_progress_utime_ = -1, cycle_end_robot_utime_ = -1;  ///< when the active cycle was seen done
   std::int64_t next_plan_id_ = 1;
   // The plan being executed.
@@ -148,7 +159,9 @@ class CellPlanner {
   std::string home_reason_;  ///< why the last home move was planned ("" if none since the last cycle)
   bool finished_ = false;
   std::int64_t clock_restarts_ = 0;
-  std::int64_t back_utime_ = -1;  ///< of the last input if it was refused as far behind the newest (-1: it was not)
+  std::int64_t back_utime_ = -1;    ///< of the last input if it was refused as far behind the newest (-1: it was not)
+  std::int64_t ahead_utime_ = -1;   ///< of the last input if it was refused as far ahead (-1: it was not)...
+  std::int64_t ahead_arrival_ = 0;  ///< ...and when it arrived
 };
 
 }  // namespace depowder::planner
