@@ -36,22 +36,14 @@ FrameError FrameMerger::add(CameraFrame frame, std::int64_t arrival) {
   // refused before. A refused frame changes no time step, lag or staleness.
   const std::int64_t ahead =
       newest_utime_ == INT64_MIN ? 0 : runsAhead(newest_utime_, newest_arrival_, frame.utime, arrival);
-  if (ahead > kClockJumpBack) {
-    const bool confirmed =
-        cam.ahead_utime != INT64_MIN &&
-        std::llabs(runsAhead(cam.ahead_utime, cam.ahead_arrival, frame.utime, arrival)) <= kClockJumpBack;
-    if (!confirmed) {
-      cam.ahead_utime = frame.utime;
-      cam.ahead_arrival = arrival;
-      char buf[80];
-      std::snprintf(buf, sizeof buf, " is %.1f s ahead", static_cast<double>(ahead) * 1e-6);
-      return {FrameStatus::kAhead, "camera '" + frame.camera + "': frame at utime " + std::to_string(frame.utime) +
-                                       buf +
-                                       " of the newest frame taken and the time since (a bad stamp, or its clock "
-                                       "jumped forward: taken if its next frame confirms it)"};
-    }
+  if (ahead > kClockJumpBack && !cam.ahead.confirms(frame.utime, arrival)) {
+    char buf[80];
+    std::snprintf(buf, sizeof buf, " is %.1f s ahead", static_cast<double>(ahead) * 1e-6);
+    return {FrameStatus::kAhead, "camera '" + frame.camera + "': frame at utime " + std::to_string(frame.utime) + buf +
+                                     " of the newest frame taken and the time since (a bad stamp, or its clock "
+                                     "jumped forward: taken if its next frame confirms it)"};
   }
-  cam.ahead_utime = INT64_MIN;
+  cam.ahead.forget();
   if (clockWentBack(released_utime_, frame.utime)) {
     ++cam.back_frames;
     cam.back_utime = frame.utime;

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <stdexcept>
 
 #include "depowder/clock.hpp"
@@ -190,50 +189,45 @@ InputResult CellPlanner::checkClock(const char* what, const std::string& part, s
                                     std::int64_t arrival) {
   const std::string said = what + (" of " + part);
   char buf[80];
-  if (newest_utime_ > 0 && clockWentBack(newest_utime_, utime)) {
-    ahead_utime_ = -1;
-    std::snprintf(buf, sizeof buf, " is %.1f s behind the newest input",
-                  static_cast<double>(behind(newest_utime_, utime)) * 1e-6);
-    // One alone is a bad stamp, refused; the clock went back when the input after it is as far
-    // behind and runs with it (not itself far behind it).
-    if (back_utime_ < 0 || clockWentBack(back_utime_, utime)) {
-      back_utime_ = utime;
-      return {InputStatus::kOutOfOrder,
-              said + buf + ": refused, unless the next input confirms that the frames' clock went back"};
-    }
-    for (PartState& s : states_) {
-      PartState fresh;
-      fresh.spec = std::move(s.spec);
-      s = std::move(fresh);
-    }
-    newest_utime_ = newest_progress_utime_ = active_utime_ = 0;
-    cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
-    active_is_cycle_ = false;
-    back_utime_ = -1;
-    ++clock_restarts_;
-    return {InputStatus::kAccepted,
-            said + buf +
-                ", as was the one before it: the frames' clock went back (a log played again, or the cameras "
-                "restarted); planning starts over"};
-  }
-  back_utime_ = -1;
+  // Far ahead: one alone is a bad stamp, refused; the clock jumped forward when the input after
+  // it runs with it.
   const std::int64_t ahead = newest_utime_ > 0 ? runsAhead(newest_utime_, newest_arrival_, utime, arrival) : 0;
-  if (ahead <= kClockJumpBack) {
-    ahead_utime_ = -1;
+  if (ahead > kClockJumpBack) {
+    back_utime_ = -1;
+    std::snprintf(buf, sizeof buf, " is %.1f s ahead of the newest input and the time since",
+                  static_cast<double>(ahead) * 1e-6);
+    if (!ahead_.confirms(utime, arrival))
+      return {InputStatus::kOutOfOrder,
+              said + buf + ": refused, unless the next input confirms that the frames' clock jumped forward"};
+    return {InputStatus::kAccepted, said + buf + ", as was the one before it: the frames' clock jumped forward"};
+  }
+  ahead_.forget();
+  if (newest_utime_ == 0 || !clockWentBack(newest_utime_, utime)) {
+    back_utime_ = -1;
     return {};
   }
-  std::snprintf(buf, sizeof buf, " is %.1f s ahead of the newest input and the time since",
-                static_cast<double>(ahead) * 1e-6);
-  // Alike: one alone is a bad stamp, refused; the clock jumped forward when the input after it
-  // runs with it.
-  if (ahead_utime_ < 0 || std::llabs(runsAhead(ahead_utime_, ahead_arrival_, utime, arrival)) > kClockJumpBack) {
-    ahead_utime_ = utime;
-    ahead_arrival_ = arrival;
+  // Far behind: alike, the clock went back when the input after it is as far behind and runs with
+  // it (not itself far behind it).
+  std::snprintf(buf, sizeof buf, " is %.1f s behind the newest input",
+                static_cast<double>(behind(newest_utime_, utime)) * 1e-6);
+  if (back_utime_ < 0 || clockWentBack(back_utime_, utime)) {
+    back_utime_ = utime;
     return {InputStatus::kOutOfOrder,
-            said + buf + ": refused, unless the next input confirms that the frames' clock jumped forward"};
+            said + buf + ": refused, unless the next input confirms that the frames' clock went back"};
   }
-  ahead_utime_ = -1;
-  return {InputStatus::kAccepted, said + buf + ", as was the one before it: the frames' clock jumped forward"};
+  for (PartState& s : states_) {
+    PartState fresh;
+    fresh.spec = std::move(s.spec);
+    s = std::move(fresh);
+  }
+  newest_utime_ = newest_progress_utime_ = active_utime_ = 0;
+  cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
+  active_is_cycle_ = false;
+  back_utime_ = -1;
+  ++clock_restarts_;
+  return {InputStatus::kAccepted, said + buf +
+                                      ", as was the one before it: the frames' clock went back (a log played again, "
+                                      "or the cameras restarted); planning starts over"};
 }
 
 void CellPlanner::takeNewest(std::int64_t utime, std::int64_t arrival) {

@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 
 namespace depowder {
@@ -67,5 +68,26 @@ inline std::int64_t runsAhead(std::int64_t reference, std::int64_t reference_arr
                               std::int64_t arrival) {
   return utime - reference - std::max<std::int64_t>(0, arrival - reference_arrival);
 }
+
+/// The far-ahead rule's memory of one source of stamps: the input it refused last as far ahead.
+class AheadWatch {
+ public:
+  /// For an input at `utime`, arriving at `arrival`, that runs more than kClockJumpBack ahead of
+  /// the newest taken: whether it runs within kClockJumpBack of the input refused so just before
+  /// it (the clock jumped forward: take it). If not, it is refused, and remembered for the next.
+  bool confirms(std::int64_t utime, std::int64_t arrival) {
+    const bool yes = refused_ && std::llabs(runsAhead(utime_, arrival_, utime, arrival)) <= kClockJumpBack;
+    refused_ = !yes;
+    utime_ = utime;
+    arrival_ = arrival;
+    return yes;
+  }
+  /// An input not far ahead came: nothing refused to confirm.
+  void forget() { refused_ = false; }
+
+ private:
+  bool refused_ = false;
+  std::int64_t utime_ = 0, arrival_ = 0;  ///< of the input refused last
+};
 
 }  // namespace depowder

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "depowder/clock.hpp"
 #include "depowder/geometry.hpp"
 #include "depowder/perception/config.hpp"
 #include "depowder/perception/status.hpp"
@@ -88,10 +89,9 @@ class FrameMerger {
     std::int64_t frames = 0;        ///< accepted
     std::int64_t last_arrival = 0;  ///< 0 = never
     std::int64_t last_utime = 0;
-    int back_frames = 0;                   ///< its frames in a row far behind the last time step published...
-    std::int64_t back_utime = 0;           ///< ...the newest of them (0 if none)
-    std::int64_t ahead_utime = INT64_MIN;  ///< its last frame, if refused as far ahead...
-    std::int64_t ahead_arrival = 0;        ///< ...and when it arrived
+    int back_frames = 0;          ///< its frames in a row far behind the last time step published...
+    std::int64_t back_utime = 0;  ///< ...the newest of them (0 if none)
+    AheadWatch ahead;             ///< its last frame, if refused as far ahead
   };
   /// Waited for: seen within silent_after and not stale.
   bool expected(const Camera& c, std::int64_t now) const;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "depowder/clock.hpp"
 #include "depowder/planner/collision.hpp"
 #include "depowder/planner/config.hpp"
 #include "depowder/planner/plan.hpp"
@@ -159,9 +160,8 @@ class CellPlanner {
   std::string home_reason_;  ///< why the last home move was planned ("" if none since the last cycle)
   bool finished_ = false;
   std::int64_t clock_restarts_ = 0;
-  std::int64_t back_utime_ = -1;    ///< of the last input if it was refused as far behind the newest (-1: it was not)
-  std::int64_t ahead_utime_ = -1;   ///< of the last input if it was refused as far ahead (-1: it was not)...
-  std::int64_t ahead_arrival_ = 0;  ///< ...and when it arrived
+  std::int64_t back_utime_ = -1;  ///< of the last input if it was refused as far behind the newest (-1: it was not)
+  AheadWatch ahead_;              ///< the last input, if it was refused as far ahead
 };
 
 }  // namespace depowder::planner
