@@ -42,7 +42,7 @@ struct PartView {
   part_truth_t truth{};
   bool has_pose = false, has_progress = false, has_truth = false;
   std::int64_t poses = 0;
-  std::int64_t done_since = 0;  // utime the part was first seen DONE
+  std::int64_t done_since = 0;  // node::steadyUtime when the part was first seen DONE
 };
 
 const char* phaseName(int phase) {
@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
       p.progress = m;
       p.has_progress = true;
       if (m.utime > 0) progress_latency_ms.push_back(secondsBetween(node::nowUtime(), m.utime) * 1e3);
-      if (m.phase == progress_t::PHASE_DONE && p.done_since == 0) p.done_since = node::nowUtime();
+      if (m.phase == progress_t::PHASE_DONE && p.done_since == 0) p.done_since = node::steadyUtime();
       if (m.phase != progress_t::PHASE_DONE) p.done_since = 0;
     });
     nozzle_plan_t plan{};  // the latest plan, named when a contact begins
@@ -187,7 +187,7 @@ int main(int argc, char** argv) {
       elapsed = std::chrono::duration<double>(now - start).count();
       std::size_t n_done = 0;
       for (const auto& [name, p] : parts)
-        if (p.done_since > 0 && node::nowUtime() - p.done_since > 1000000) ++n_done;
+        if (p.done_since > 0 && node::steadyUtime() - p.done_since > 1000000) ++n_done;
       if (parts.size() >= expected_parts && n_done == parts.size()) {
         done = true;
         break;

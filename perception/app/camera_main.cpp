@@ -107,8 +107,8 @@ class CameraNode {
   int runLive() {
     bus_.subscribe<depth_image_t>(options_.input, [this](const depth_image_t& msg, const std::string&) {
       const auto t0 = Clock::now();
-      const std::int64_t arrival = nowUtime();
-      input_ms_.add(secondsBetween(arrival, msg.utime) * 1e3);  // any utime: the proxy checks it
+      const std::int64_t arrival = node::steadyUtime();
+      input_ms_.add(secondsBetween(nowUtime(), msg.utime) * 1e3);  // any utime: the proxy checks it
       DepthImage image;
       PinholeCamera camera;
       FrameError e = fromMsg(msg, image, camera);
@@ -130,7 +130,7 @@ class CameraNode {
       // Wake for the next frame, the oldest time step's deadline, or the heartbeat.
       int timeout_ms = 50;
       if (const std::int64_t deadline = proxy_.nextDeadline(); deadline > 0)
-        timeout_ms = static_cast<int>(std::clamp<std::int64_t>((deadline - nowUtime() + 999) / 1000, 0, 50));
+        timeout_ms = static_cast<int>(std::clamp<std::int64_t>((deadline - node::steadyUtime() + 999) / 1000, 0, 50));
       bus_.spinOnce(timeout_ms);
       bus_.drain();  // a camera's frame already in the socket is not late: read it before any deadline
       publishReady();
@@ -153,10 +153,9 @@ class CameraNode {
     while (!node::shutdownRequested()) {
       const auto t0 = Clock::now();
       if (!source.next(scan)) break;
-      const std::int64_t now = nowUtime();
       FrameError e = scan.error;
       if (e.ok())
-        e = proxy_.addCameraPoints(scan.points, now, f.camera, now);
+        e = proxy_.addCameraPoints(scan.points, nowUtime(), f.camera, node::steadyUtime());
       else
         proxy_.reject(e);
       if (!e.ok()) drop(e);
@@ -180,7 +179,7 @@ class CameraNode {
 
   void publishReady() {
     const auto t0 = Clock::now();
-    for (CellCloud& cloud : proxy_.poll(nowUtime())) {
+    for (CellCloud& cloud : proxy_.poll(node::steadyUtime())) {
       int lost = 0;
       point_cloud_t msg = node::encodeCloud(cloud.points, cloud.utime, options_.perception.resolution, &lost);
       msg.seq = seq_++;
@@ -223,7 +222,7 @@ class CameraNode {
       std::fprintf(stderr, "depowder-camera: %s\n", proxy_.lastClockRestart().c_str());
     }
     std::string reason;
-    for (const CameraHealth& h : proxy_.health(nowUtime())) {
+    for (const CameraHealth& h : proxy_.health(node::steadyUtime())) {
       heartbeat_.setStat("age_s_" + h.name, h.last_seen_age);
       heartbeat_.setStat("lag_s_" + h.name, h.utime_lag);
       if (h.silent) {

@@ -55,9 +55,9 @@ int main(int argc, char** argv) {
       last_said = r.reason;
     };
     bus.subscribe<part_pose_t>(
-        "PART_POSE", [&](const part_pose_t& m, const std::string&) { report(logic.onPose(m, node::nowUtime())); });
+        "PART_POSE", [&](const part_pose_t& m, const std::string&) { report(logic.onPose(m, node::steadyUtime())); });
     bus.subscribe<progress_t>(
-        "PROGRESS", [&](const progress_t& m, const std::string&) { report(logic.onProgress(m, node::nowUtime())); });
+        "PROGRESS", [&](const progress_t& m, const std::string&) { report(logic.onProgress(m, node::steadyUtime())); });
     // A driver that has just started (or come back) refuses plans until it has heard this
     // planner's heartbeat: its first ROBOT_STATE after a silence gets one at once, ahead of the
     // plan it leads to, rather than at the next tick.

@@ -36,7 +36,7 @@ class PlannerNode {
   PlannerNode(const node::CellConfig& cell, const PlannerNodeOptions& options);
 
   /// Each returns the input's status; a rejected message changes nothing. `arrival`: when it
-  /// arrived, us on the wall clock (CellPlanner::onPose).
+  /// arrived, us on a clock that only moves forward (CellPlanner::onPose).
   InputResult onPose(const part_pose_t& msg, std::int64_t arrival);
   InputResult onProgress(const progress_t& msg, std::int64_t arrival);
   InputResult onRobot(const robot_state_t& msg);

@@ -5,7 +5,9 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <memory>
 
@@ -27,7 +29,8 @@ class PlannerProcess : public ::testing::Test {
  protected:
   void SetUp() override {
     process_.start({"--cell", process_.write("cell.yaml", test::cubeCellYaml("planner: {heartbeat_period: 0.2}\n")),
-                    "--url", kUrl, "--prefix", process_.prefix()});
+                    "--url", kUrl, "--prefix", process_.prefix()},
+                   env_);
     bus_ = std::make_unique<node::Bus>(kUrl, process_.prefix());
     bus_->subscribe<nozzle_plan_t>("NOZZLE_PLAN",
                                    [&](const nozzle_plan_t& m, const std::string&) { plans_.push_back(m); });
@@ -52,6 +55,7 @@ class PlannerProcess : public ::testing::Test {
         [&] { return !plans_.empty() && plans_.back().utime <= utime && plans_.back().num_waypoints > 0; }, 10);
   }
   testutil::ProcessUnderTest process_{"depowder-planner"};
+  std::vector<std::string> env_;  ///< for the process, if any
   std::unique_ptr<node::Bus> bus_;
   std::vector<nozzle_plan_t> plans_;
   heartbeat_t last_{};
@@ -127,6 +131,55 @@ TEST_F(PlannerProcess, ALoneInputFarAheadIsRefusedAndNothingStartsOver) {
   EXPECT_EQ(last_.dropped, 1);
   EXPECT_EQ(node::heartbeatStat(last_, "clock_restarts"), 0);
   for (const nozzle_plan_t& p : plans_) EXPECT_LE(p.utime, 60'066'000) << "a plan from the future: " << p.reason;
+  EXPECT_EQ(last_.state, +heartbeat_t::RUNNING) << last_.state_reason;
+  EXPECT_EQ(process_.terminate(), 0);
+}
+
+// libfaketime's path, as the faketime command preloads it ("" if there is no faketime).
+std::string libfaketime() {
+  std::string path;
+  if (FILE* p = popen("faketime -f +0 sh -c 'printf %s \"$LD_PRELOAD\"' 2>/dev/null", "r")) {
+    char buf[512];
+    while (std::fgets(buf, sizeof buf, p)) path += buf;
+    pclose(p);
+  }
+  return path;
+}
+
+// The planner's system clock, stepped by libfaketime through a file it reads at each call; its
+// steady clock is left alone, as NTP or an operator would.
+class PlannerSteppedClock : public PlannerProcess {
+ protected:
+  void SetUp() override {
+    const std::string lib = libfaketime();
+    ASSERT_FALSE(lib.empty()) << "faketime is not installed (scripts/install-deps installs it)";
+    step("+0");
+    const char* asan = std::getenv("ASAN_OPTIONS");  // its runtime wants to come first (scripts/sanitize)
+    env_ = {"LD_PRELOAD=" + lib, "FAKETIME_TIMESTAMP_FILE=" + clock_, "FAKETIME_NO_CACHE=1",
+            "FAKETIME_DONT_FAKE_MONOTONIC=1",
+            std::string("ASAN_OPTIONS=") + (asan ? std::string(asan) + ":" : "") + "verify_asan_link_order=0"};
+    PlannerProcess::SetUp();
+  }
+  /// Sets the system clock's offset, e.g. "-3600" (an hour back).
+  void step(const std::string& offset) { std::ofstream(clock_) << offset << "\n"; }
+  const std::string clock_ = process_.dir() + "/clock";
+};
+
+// The planner's host steps its system clock an hour back. Its heartbeat goes on (it fell silent
+// for the hour, timed on that clock), and a frame three seconds after the last, after three
+// seconds of silence, is taken (the far-ahead rule, timing arrivals on that clock, refused it).
+TEST_F(PlannerSteppedClock, AnHourBackStopsNothing) {
+  frame(60'000'000);
+  ASSERT_TRUE(plannedBy(60'000'000));
+  ASSERT_TRUE(twoMoreHeartbeats());
+  step("-3600");
+  const int before = heartbeats_;
+  bus_->spinUntil([] { return false; }, 3.0);
+  EXPECT_GE(heartbeats_ - before, 10) << "heartbeats in the 3 s after the step (every 0.2 s)";
+  frame(63'000'000);
+  ASSERT_TRUE(twoMoreHeartbeats()) << "no heartbeat after the step";
+  EXPECT_EQ(last_.dropped, 0) << "the frame after the silence was refused";
+  EXPECT_EQ(node::heartbeatStat(last_, "clock_restarts"), 0);
   EXPECT_EQ(last_.state, +heartbeat_t::RUNNING) << last_.state_reason;
   EXPECT_EQ(process_.terminate(), 0);
 }

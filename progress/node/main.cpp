@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
         input_problem = "bad POINTS frame: " + why;
         return;
       }
-      append(logic.onPoints(msg.utime, std::move(*cloud), node::nowUtime()));
+      append(logic.onPoints(msg.utime, std::move(*cloud), node::steadyUtime()));
     });
     bus.subscribe<part_pose_t>("PART_POSE",
                                [&](const part_pose_t& msg, const std::string&) { append(logic.onPose(msg)); });
@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
     std::map<std::string, std::string> problems;  // per part, from its last message
     while (!node::shutdownRequested()) {
       bus.spinOnce(10);
-      append(logic.poll(node::nowUtime()));
+      append(logic.poll(node::steadyUtime()));
       for (const progress_t& m : out) {
         bus.publish("PROGRESS", m);
         if (m.status == progress_t::OK)

@@ -46,7 +46,8 @@ class ProgressNode {
   /// Loads and samples every part's mesh (throws MeshError naming the file).
   ProgressNode(const node::CellConfig& cell, ProgressNodeOptions options);
 
-  /// A decoded POINTS frame arrived at wall time `now_us`.
+  /// A decoded POINTS frame arrived at `now_us`, us on a clock that only moves forward (the
+  /// process's node::steadyUtime): it waits for its poses by that clock.
   std::vector<progress_t> onPoints(std::int64_t utime, Cloud cloud, std::int64_t now_us);
   /// A PART_POSE arrived: frames waiting for it are processed.
   std::vector<progress_t> onPose(const part_pose_t& msg);

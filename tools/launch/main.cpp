@@ -122,11 +122,13 @@ int main(int argc, char** argv) {
     const int code = supervisor.run([] { return node::shutdownRequested(); },
                                     [&] {
                                       if (!bus) return;
-                                      const std::int64_t now = node::nowUtime();
+                                      // Each second on the steady clock: a step of the system clock
+                                      // neither silences nor floods the status.
+                                      const std::int64_t now = node::steadyUtime();
                                       if (now - last_status < 1000000) return;
                                       last_status = now;
                                       launcher_status_t s = supervisor.status();
-                                      s.utime = now;
+                                      s.utime = node::nowUtime();
                                       s.deployment = deployment_file;
                                       bus->publish("LAUNCHER", s);
                                       heartbeat->tick();

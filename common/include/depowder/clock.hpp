@@ -63,7 +63,7 @@ inline bool clockJumpedAhead(std::int64_t newest, std::int64_t utime) { return c
 /// How far `utime`, arriving at `arrival`, runs ahead of `reference`, which arrived at
 /// `reference_arrival`, beyond the wall time between them: us, < 0 behind. The far-ahead rule
 /// refuses an input for which this exceeds kClockJumpBack. Utimes in range (utimeInRange) and
-/// arrivals from the wall clock (us since the epoch): no overflow.
+/// arrivals from a clock that only moves forward (node::steadyUtime: us since boot): no overflow.
 inline std::int64_t runsAhead(std::int64_t reference, std::int64_t reference_arrival, std::int64_t utime,
                               std::int64_t arrival) {
   return utime - reference - std::max<std::int64_t>(0, arrival - reference_arrival);

@@ -78,4 +78,9 @@ std::int64_t nowUtime() {
       .count();
 }
 
+std::int64_t steadyUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 }  // namespace depowder::node

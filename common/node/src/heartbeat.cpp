@@ -46,18 +46,21 @@ void Heartbeat::setState(std::int8_t state, std::string reason) {
 }
 
 void Heartbeat::tick() {
-  if (nowUtime() - last_utime_ >= static_cast<std::int64_t>(period_s_ * 1e6)) publish();
+  if (steadyUtime() - last_publish_ >= static_cast<std::int64_t>(period_s_ * 1e6)) publish();
 }
 
 void Heartbeat::publish() {
-  const std::int64_t now = nowUtime();
+  // Periods and CPU shares on the steady clock: a step of the system clock neither silences the
+  // heartbeat (one an hour back used to, for an hour) nor skews its CPU share. The stamp is the
+  // system clock's, as every message's.
+  const std::int64_t now = steadyUtime();
   const double cpu = processCpuSeconds();
-  const double wall = last_utime_ > 0 ? (now - last_utime_) * 1e-6 : 0.0;
+  const double wall = last_publish_ > 0 ? (now - last_publish_) * 1e-6 : 0.0;
   msg_.cpu_percent = wall > 0 ? static_cast<float>(100.0 * (cpu - last_cpu_s_) / wall) : 0.f;
   last_cpu_s_ = cpu;
-  last_utime_ = now;
+  last_publish_ = now;
   const Bus::Counters c = bus_.counters();
-  msg_.utime = now;
+  msg_.utime = nowUtime();
   msg_.received = c.received;
   msg_.published = c.published + 1;  // this heartbeat included
   msg_.decode_errors = c.decode_errors;

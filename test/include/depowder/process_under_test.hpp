@@ -52,10 +52,15 @@ class ProcessUnderTest {
     return path;
   }
 
-  /// Starts the executable with `args`.
-  void start(const std::vector<std::string>& args) {
+  /// Starts the executable with `args`, and `env` ("NAME=value", through env(1)) if any.
+  void start(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
     if (child_) throw std::logic_error(name_ + " is already running");
-    std::vector<std::string> argv{exe()};
+    std::vector<std::string> argv;
+    if (!env.empty()) {
+      argv.push_back("env");
+      argv.insert(argv.end(), env.begin(), env.end());
+    }
+    argv.push_back(exe());
     argv.insert(argv.end(), args.begin(), args.end());
     child_ = std::make_unique<ChildProcess>(argv);
   }

@@ -3,15 +3,16 @@
 // or once it has waited max_wait, so a missing or dead camera never stalls the stream.
 //
 // Two clocks: `utime` is the capture time a frame carries (matching, staleness; works
-// for replayed logs), `now` / `arrival` is the wall clock of this process (waiting,
-// silence). Both in microseconds; the caller passes them, so tests control time.
+// for replayed logs), `now` / `arrival` is a clock of this process that only moves forward
+// (waiting, silence; depowder-camera's node::steadyUtime, so a step of the system clock neither
+// stretches nor cuts them). Both in microseconds; the caller passes them, so tests control time.
 //
 // The capture clock going back (depowder/clock.hpp) is told from a camera whose clock runs
 // behind the others: only when every camera heard within silent_after has sent a frame more
 // than kClockJumpBack behind the last time step published does the merger start over. The
 // time steps still waiting go out as they are, and the new frames are grouped from scratch.
 //
-// A frame whose utime ran more than kClockJumpBack ahead of the wall clock since the newest frame
+// A frame whose utime ran more than kClockJumpBack ahead of the time passed since the newest frame
 // taken is refused (kAhead) unless the same camera's frame before it was refused so and this one
 // runs within kClockJumpBack of it: one bad stamp changes nothing, a clock that jumped forward
 // loses one frame per camera, and frames far apart in time (a slow camera, a silence) are not ahead.
@@ -44,7 +45,7 @@ struct MergedFrame {
 struct CameraHealth {
   std::string name;
   std::int64_t frames = 0;    ///< frames accepted
-  double last_seen_age = -1;  ///< s since the last frame arrived (wall clock); -1 = never
+  double last_seen_age = -1;  ///< s since the last frame arrived; -1 = never
   double utime_lag = 0;       ///< s its newest utime lags the newest of all cameras
   bool silent = false;        ///< never seen, or nothing for silent_after (then not waited for)
   bool stale = false;         ///< utime_lag > stale_after (then not waited for)
@@ -82,7 +83,7 @@ class FrameMerger {
  private:
   struct Group {
     std::int64_t utime = 0;          ///< utime of the first frame (matching reference)
-    std::int64_t first_arrival = 0;  ///< wall clock
+    std::int64_t first_arrival = 0;  ///< `now` clock
     std::map<std::string, CameraFrame> frames;
   };
   struct Camera {
@@ -107,8 +108,8 @@ class FrameMerger {
   std::vector<MergedFrame> flushed_;         ///< time steps of the old clock, released at the next poll
   std::int64_t released_utime_ = INT64_MIN;  ///< reference utime of the last released group
   std::int64_t newest_utime_ = INT64_MIN;
-  std::int64_t newest_arrival_ = 0;  ///< of the frame of newest_utime_ (wall clock)
-  std::int64_t start_ = 0;           ///< arrival of the first frame (wall clock)
+  std::int64_t newest_arrival_ = 0;  ///< of the frame of newest_utime_ (`now` clock)
+  std::int64_t start_ = 0;           ///< arrival of the first frame (`now` clock)
   std::int64_t restarts_ = 0;
   std::string last_restart_;
 };

@@ -84,8 +84,8 @@ class CellPlanner {
               const PlannerConfig& config = {});
   ~CellPlanner();
 
-  /// `arrival` is when the input arrived, us on the wall clock (the node's; a test's or an
-  /// in-process run's own), for the far-ahead rule.
+  /// `arrival` is when the input arrived, us on a clock that only moves forward (the node's
+  /// node::steadyUtime; a test's or an in-process run's own), for the far-ahead rule.
   ///
   /// A pose or progress older than the part's last is refused (kOutOfOrder). So is one more than
   /// kClockJumpBack behind the newest input (depowder/clock.hpp), unless the input before it was
@@ -138,7 +138,7 @@ class CellPlanner {
   std::vector<PartReport> reports_;
   std::optional<RobotInput> robot_;
   std::int64_t newest_utime_ = 0;  ///< of the poses and progress taken (0: none since the start or the clock went back)
-  std::int64_t newest_arrival_ = 0;         ///< when the input of newest_utime_ arrived (wall clock, us)
+  std::int64_t newest_arrival_ = 0;         ///< when the input of newest_utime_ arrived (us)
   std::int64_t newest_progress_utime_ = 0;  ///< the last step of a frame's pipeline
   std::int64_t cycle_end_progress_utime_ = -1, cycle_end_robot_utime_ = -1;  ///< when the active cycle was seen done
   std::int64_t next_plan_id_ = 1;

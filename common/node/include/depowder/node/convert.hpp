@@ -23,7 +23,10 @@ point_cloud_t encodeCloud(const Cloud& cloud, std::int64_t utime, double resolut
 /// The points of `msg` in metres, or nullopt with `why` if the header is invalid.
 std::optional<Cloud> decodeCloud(const point_cloud_t& msg, std::string* why = nullptr);
 
-/// Microseconds since the Unix epoch, now.
+/// Microseconds since the Unix epoch, now: for stamps, and for ages of stamped messages.
 std::int64_t nowUtime();
+/// Microseconds on a clock that only moves forward (since boot), now: for when a message arrived
+/// and for waits, which a step of the system clock (NTP, an operator) must not stretch or cut.
+std::int64_t steadyUtime();
 
 }  // namespace depowder::node

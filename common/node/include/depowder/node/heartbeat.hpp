@@ -30,7 +30,7 @@ class Heartbeat {
   Bus& bus_;
   heartbeat_t msg_;
   double period_s_;
-  std::int64_t last_utime_ = 0;
+  std::int64_t last_publish_ = 0;  ///< node::steadyUtime of the last heartbeat (0: none yet)
   double last_cpu_s_ = 0;
   std::int64_t dropped_ = 0;
   std::map<std::string, double> stats_;
