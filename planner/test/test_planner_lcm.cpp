@@ -71,9 +71,8 @@ TEST_F(PlannerProcess, PlansFromMessagesCountsBadInputStopsCleanly) {
   bus_->publishRaw("PROGRESS", "not progress", 12);
 
   // 2. A pose and its progress: a plan stamped with that frame, waypoints with IK solutions.
-  bus_->publish("PART_POSE", test::cubePose(2000, T_));
-  bus_->publish("PROGRESS", test::cubeProgress(2000, T_, 0.04));
-  ASSERT_TRUE(bus_->spinUntil([&] { return !plans_.empty() && plans_.back().num_waypoints > 0; }, 10));
+  frame(2000);
+  ASSERT_TRUE(plannedBy(2000));
   const nozzle_plan_t& plan = plans_.back();
   EXPECT_EQ(plan.utime, 2000);
   EXPECT_EQ(plan.part, "cube");
