@@ -6,7 +6,8 @@
 //   report CASE    read the run's LCM log and print what the fault did (stop times, gaps, jumps,
 //                  restarts, decode errors), then check it against the limits stated below;
 //                  exit 1 if a check fails
-// Times are wall-clock microseconds (the utime of every depowder message).
+// Times are wall-clock microseconds (the utime of every depowder message). After a step of the
+// host's system clock (--step), the stamps taken after it are put back on the clock before it.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -47,8 +48,9 @@ int usage() {
   std::cerr << "usage: fault_probe wait tracking|vacuum [--timeout S]\n"
                "       fault_probe garbage [--seconds S] [--rate HZ] [--seed N]\n"
                "       fault_probe future [--ahead S]\n"
-               "       fault_probe report CASE LOG --cell FILE --at UTIME [--until UTIME]\n"
-               "  CASE: tracker_killed | link_cut | estop | garbage | camera_silent | controller_drop | clock_jump\n";
+               "       fault_probe report CASE LOG --cell FILE --at UTIME [--until UTIME] [--step S]\n"
+               "  CASE: tracker_killed | link_cut | estop | garbage | camera_silent | controller_drop | clock_jump |\n"
+               "        clock_step (the host's system clock stepped S seconds at UTIME)\n";
   return 2;
 }
 
@@ -198,6 +200,25 @@ Log readLog(const std::string& path) {
   return log;
 }
 
+/// The log of a run whose host stepped its system clock by `step` us at `at` (wall clock before
+/// the step): each stamp taken after the step is put back on the clock before it, so that times
+/// across the step compare. A stamp more than half the step beyond `at` was taken after it.
+void unstep(Log& log, std::int64_t at, std::int64_t step) {
+  if (step == 0) return;
+  auto fix = [&](std::int64_t& u) {
+    if (u > 0 && (step < 0 ? u < at + step / 2 : u > at + step / 2)) u -= step;
+  };
+  for (robot_state_t& m : log.states) fix(m.utime), fix(m.plan_utime);
+  for (part_pose_t& m : log.poses) fix(m.utime);
+  for (sim_truth_t& m : log.truths) fix(m.utime);
+  for (nozzle_plan_t& m : log.plans) fix(m.utime);
+  for (heartbeat_t& m : log.heartbeats) fix(m.utime);
+  for (std::int64_t& u : log.heartbeat_rx) fix(u);
+  for (launcher_status_t& m : log.launchers) fix(m.utime);
+  for (estop_t& m : log.estops) fix(m.utime);
+  for (point_cloud_t& m : log.clouds) fix(m.utime);
+}
+
 Pose poseOf(const pose_t& m) {
   const std::optional<Pose> p = node::fromMsg(m);
   if (!p) throw std::runtime_error("a PART_POSE in the log has an invalid pose");
@@ -274,9 +295,29 @@ int restartsOf(const Log& log, const std::string& process) {
   return restarts;
 }
 
+/// Each process's heartbeat statistics, the largest value each took in the run.
+std::map<std::string, std::map<std::string, double>> largestStats(const Log& log) {
+  std::map<std::string, std::map<std::string, double>> stats;
+  for (const heartbeat_t& h : log.heartbeats)
+    for (std::size_t i = 0; i < h.stat_names.size(); ++i) {
+      double& v = stats[h.process][h.stat_names[i]];
+      v = std::max(v, h.stat_values[i]);
+    }
+  return stats;
+}
+
+/// The first ROBOT_STATE following a plan whose camera frame came after `after` and before
+/// `before`: when the arm worked again on frames taken after a fault (0: never).
+std::int64_t followingFramesAfter(const Log& log, std::int64_t after, std::int64_t before) {
+  for (const robot_state_t& s : log.states)
+    if (s.mode == robot_state_t::MODE_FOLLOWING && s.plan_utime > after && s.plan_utime < before) return s.utime;
+  return 0;
+}
+
 int report(const std::string& fault, const std::string& log_path, const std::string& cell_path, std::int64_t at,
-           std::int64_t until) {
-  const Log log = readLog(log_path);
+           std::int64_t until, std::int64_t step) {
+  Log log = readLog(log_path);
+  unstep(log, at, step);
   const robot::RobotSection robot = robot::readRobotSection(node::loadCell(cell_path));
   const robot::SafetyConfig& safety = robot.driver.safety;
   if (until == 0) until = std::numeric_limits<std::int64_t>::max();
@@ -500,28 +541,61 @@ int report(const std::string& fault, const std::string& log_path, const std::str
     c.check(ahead == 0, "no time step from the future went out");
     c.measured("POINTS from 1 to 11 s after it", after, "");
     c.check(after >= 240, "POINTS kept coming (24 a second or more)");
-    std::map<std::string, std::map<std::string, double>> stats;  // process -> stat -> largest value
-    for (const heartbeat_t& h : log.heartbeats)
-      for (std::size_t i = 0; i < h.stat_names.size(); ++i) {
-        double& v = stats[h.process][h.stat_names[i]];
-        v = std::max(v, h.stat_values[i]);
-      }
+    auto stats = largestStats(log);
     c.measured("depowder-camera frames refused as far ahead", stats["depowder-camera"]["dropped_ahead"], "");
     c.check(stats["depowder-camera"]["dropped_ahead"] == 1, "the camera proxy refused the frame and counted it");
     for (const char* p : {"depowder-camera", "depowder-planner"}) {
       c.measured(std::string(p) + " clock restarts", stats[p]["clock_restarts"], "");
       c.check(stats[p]["clock_restarts"] == 0, std::string(p) + " did not start its clock over");
     }
-    std::int64_t resumed = 0;
     bool followed_future = false;
-    for (const robot_state_t& s : log.states) {
-      followed_future = followed_future || s.plan_utime > at + kDay;
-      if (!resumed && s.mode == robot_state_t::MODE_FOLLOWING && s.plan_utime > at && s.plan_utime < at + kDay)
-        resumed = s.utime;
-    }
+    for (const robot_state_t& s : log.states) followed_future = followed_future || s.plan_utime > at + kDay;
     c.check(!followed_future, "the driver followed no plan stamped in the future");
+    const std::int64_t resumed = followingFramesAfter(log, at, at + kDay);
     if (resumed) c.measured("fault -> following a plan from a later frame", (resumed - at) * 1e-6, "s");
     c.check(resumed && resumed - at < 5000000, "the arm followed plans from later frames within 5 s");
+  } else if (fault == "clock_step") {
+    // Every process of the host saw its system clock step an hour back at `at` (the times here
+    // are put back on the clock before it). The driver's plan, from a frame now an hour ahead of
+    // its clock, is stopped; the camera proxy and the planner start their time over on the second
+    // frame and input from the new clock; no heartbeat, timed on the steady clock, falls silent.
+    int points = 0;
+    for (const point_cloud_t& p : log.clouds) points += p.utime > at + 1000000 && p.utime <= at + 11000000;
+    c.measured("POINTS from 1 to 11 s after the step", points, "");
+    c.check(points >= 240, "POINTS kept coming (24 a second or more)");
+    auto stats = largestStats(log);
+    for (const char* p : {"depowder-camera", "depowder-planner"}) {
+      c.measured(std::string(p) + " clock restarts", stats[p]["clock_restarts"], "");
+      c.check(stats[p]["clock_restarts"] == 1, std::string(p) + " started its time over, once");
+    }
+    // The longest silence of each process's heartbeat (every 0.5 s) from 5 s before the step
+    // to 20 s after it, counting the silence to the end of that window.
+    std::map<std::string, std::int64_t> last, longest;
+    for (const heartbeat_t& h : log.heartbeats) {
+      if (h.utime < at - 5000000 || h.utime > at + 20000000) continue;
+      if (last.count(h.process)) longest[h.process] = std::max(longest[h.process], h.utime - last[h.process]);
+      last[h.process] = h.utime;
+    }
+    for (const char* p :
+         {"depowder-camera", "depowder-tracker", "depowder-progress", "depowder-planner", "depowder-driver"}) {
+      if (last.count(p)) longest[p] = std::max(longest[p], at + 20000000 - last[p]);
+      c.measured(std::string(p) + "'s longest heartbeat silence around the step", longest[p] * 1e-6, "s");
+      c.check(last.count(p) && longest[p] < 2000000, std::string(p) + "'s heartbeat never fell silent for 2 s");
+    }
+    std::int64_t held = 0;
+    std::string why;
+    for (const robot_state_t& s : log.states)
+      if (!held && s.utime >= at && s.mode == robot_state_t::MODE_HOLDING) held = s.utime, why = s.mode_reason;
+    std::printf("driver's reason: %s\n", why.c_str());
+    c.check(why.find("ahead of this host's clock") != std::string::npos,
+            "the driver stopped the plan whose frame is now ahead of its clock");
+    if (held) c.measured("step -> driver holding", (held - at) * 1e-6, "s");
+    const std::int64_t resumed = followingFramesAfter(log, at, std::numeric_limits<std::int64_t>::max());
+    if (resumed) c.measured("step -> following a plan from a frame after it", (resumed - at) * 1e-6, "s");
+    c.check(resumed && resumed - at < 5000000, "the arm followed plans from frames after the step within 5 s");
+    const int restarts = restartsOf(log, "");
+    c.measured("restarts of any process", restarts, "");
+    c.check(restarts == 0, "no process died");
   } else if (fault == "controller_drop") {
     // Reported: a DISCONNECTED ROBOT_STATE (ROBOT_STATE comes every 8 ms: a reconnect faster than
     // that shows only in the heartbeat's counter), then the reconnect counted in the heartbeat.
@@ -579,7 +653,8 @@ int main(int argc, char** argv) {
     if (cmd == "future") return future(num("--ahead", 365 * 86400.0));
     if (cmd == "report" && pos.size() == 2 && opt.count("--cell") && opt.count("--at"))
       return report(pos[0], pos[1], opt["--cell"], std::stoll(opt["--at"]),
-                    opt.count("--until") ? std::stoll(opt["--until"]) : 0);
+                    opt.count("--until") ? std::stoll(opt["--until"]) : 0,
+                    static_cast<std::int64_t>(num("--step", 0) * 1e6));
   } catch (const std::exception& e) {
     std::cerr << "fault_probe: " << e.what() << std::endl;
     return 1;

@@ -16,11 +16,18 @@
 #                    reports it, reconnects, re-takes the arm, no jump
 #   clock_jump       one camera frame published again stamped a year ahead: the camera proxy
 #                    refuses it, nothing downstream sees it or starts over; the run completes
-# usage: test/faults.sh BUILD_DIR SOURCE_DIR FAULT   (needs root; prints what it measured)
+#   clock_step       the host's system clock stepped an hour back while vacuuming (NTP, an
+#                    operator; test/clock_step.cpp preloaded into every process): the driver
+#                    stops the plan now an hour ahead of its clock, the camera proxy and the
+#                    planner start their time over, no heartbeat falls silent, the arm resumes;
+#                    the run completes
+# usage: test/faults.sh BUILD_DIR SOURCE_DIR FAULT CLOCK_STEP_LIB   (needs root; prints what it
+# measured; CLOCK_STEP_LIB: test/clock_step.cpp built, for clock_step)
 set -eu
 BUILD=$1
 SRC=$2
 FAULT=$3
+CLOCK_STEP_LIB=$4
 BIN=$BUILD/bin
 PROBE=$BUILD/tests/fault_probe
 H=$SRC/test/netns-hosts
@@ -88,8 +95,16 @@ if [ $hosts -eq 1 ]; then  # every deployment host on the one test host
   sed -i -e '/^  - name: compute$/,/^    processes:$/d' -e '/^  - name: robot$/,/^    processes:$/d' -e '/robotlog/d' deploy.yaml
   sed -i -e 's/^  - name: camera$/  - name: local/' deploy.yaml
 fi
+# clock_step: every process of the host reads its system clock's offset from ./clock
+# (CLOCK_STEP_LIB, preloaded; the steady clock is left alone, as NTP or an operator would).
+faked=""
+if [ "$FAULT" = clock_step ]; then
+  echo 0 > clock
+  faked="env LD_PRELOAD=$CLOCK_STEP_LIB DEPOWDER_CLOCK_STEP_FILE=$PWD/clock"
+fi
 launch() {  # launch HOST_INDEX HOST_NAME
-  on "$1" "$BIN/depowder-launch" deploy.yaml --host "$2" --run-dir "run_$2" --set CELL="$PWD/cell.yaml" \
+  # shellcheck disable=SC2086
+  on "$1" $faked "$BIN/depowder-launch" deploy.yaml --host "$2" --run-dir "run_$2" --set CELL="$PWD/cell.yaml" \
     > "launch_$2.out" 2>&1 &
   launcher_pids="$launcher_pids $!"
 }
@@ -142,6 +157,12 @@ clock_jump)
   sleep 3
   at=$(on 1 "$PROBE" future --ahead 31536000)
   wait_run ;;
+clock_step)
+  on 1 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  sleep 3
+  at=$(now); echo -3600 > clock
+  until_opt="--step -3600"
+  wait_run ;;
 camera_silent | controller_drop)
   # sim.faults at t = 70 s; 20 s of it, then 10 s more.
   on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
@@ -180,7 +201,7 @@ summary_has() {
   fi
 }
 case $FAULT in
-tracker_killed | garbage | clock_jump)  # these runs must still finish the part
+tracker_killed | garbage | clock_jump | clock_step)  # these runs must still finish the part
   grep -A14 "run summary" "launch_$main.out" || true
   # (contacts away from the fault come from tracking accuracy: the summary above prints them)
   summary_has '"done": true' "the run completed" "the run did not complete cleanly" ;;

@@ -1,9 +1,11 @@
 #!/bin/sh
 # LCM with ?ttl=1 crosses test hosts joined by a bridge, and stops when a host's link is cut;
-# depowder-status tells a host whose clock runs ahead (faketime: its wall clock 3 s ahead), and
-# hosts whose cell files differ (a part's initial pose 1 mm apart) and two of one cell process.
+# depowder-status tells a host whose clock runs ahead (its wall clock set 3 s ahead by
+# CLOCK_STEP_LIB, test/clock_step.cpp preloaded), hosts whose cell files differ (a part's initial
+# pose 1 mm apart) and two of one cell process.
 set -eu
 BIN=$1
+CLOCK_STEP_LIB=$2
 H=$(dirname "$0")/netns-hosts
 [ "$(id -u)" -eq 0 ] || { echo "SKIPPED: needs root for ip netns"; echo "0 passed, 0 failed, 1 skipped"; exit 0; }
 T=mhl$$
@@ -22,11 +24,11 @@ clock_ms() {  # prints the clock difference depowder-status reports for depowder
   "$H" exec $T 3 "$@" "$BIN/depowder-estop" stop --reason clock > /dev/null
   wait $p && sed -n 's/.*its clock \([-+0-9.]*\) ms.*/\1/p' clock.out
 }
-command -v faketime > /dev/null || { echo "FAILED: faketime is not installed (scripts/install-deps)"; exit 1; }
 same=$(clock_ms env) || same=""
-# (An AddressSanitizer build, scripts/sanitize, wants its runtime ahead of faketime's preload.)
-ahead=$(clock_ms env FAKETIME_DONT_FAKE_MONOTONIC=1 ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}verify_asan_link_order=0" \
-  faketime -f +3s) || ahead=""
+echo 3 > ahead
+# (An AddressSanitizer build, scripts/sanitize, wants its runtime ahead of any preload.)
+ahead=$(clock_ms env LD_PRELOAD="$CLOCK_STEP_LIB" DEPOWDER_CLOCK_STEP_FILE="$PWD/ahead" \
+  ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}verify_asan_link_order=0") || ahead=""
 echo "clock difference: same clock ${same:-?} ms, host 3 set 3 s ahead ${ahead:-?} ms"
 if awk -v a="$same" -v b="$ahead" 'BEGIN { exit !(a != "" && b != "" && a > -50 && a < 50 && b > 2950 && b < 3050) }'; then
   pass=$((pass+1)); echo "ok: clock differences"

@@ -5,7 +5,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <functional>
@@ -134,32 +133,18 @@ TEST_F(PlannerProcess, ALoneInputFarAheadIsRefusedAndNothingStartsOver) {
   EXPECT_EQ(process_.terminate(), 0);
 }
 
-// libfaketime's path, as the faketime command preloads it ("" if there is no faketime).
-std::string libfaketime() {
-  std::string path;
-  if (FILE* p = popen("faketime -f +0 sh -c 'printf %s \"$LD_PRELOAD\"' 2>/dev/null", "r")) {
-    char buf[512];
-    while (std::fgets(buf, sizeof buf, p)) path += buf;
-    pclose(p);
-  }
-  return path;
-}
-
-// The planner's system clock, stepped by libfaketime through a file it reads at each call; its
-// steady clock is left alone, as NTP or an operator would.
+// The planner's system clock, stepped through a file it reads (test/clock_step.cpp, preloaded);
+// its steady clock is left alone, as NTP or an operator would.
 class PlannerSteppedClock : public PlannerProcess {
  protected:
   void SetUp() override {
-    const std::string lib = libfaketime();
-    ASSERT_FALSE(lib.empty()) << "faketime is not installed (scripts/install-deps installs it)";
-    step("+0");
+    step("0");
     const char* asan = std::getenv("ASAN_OPTIONS");  // its runtime wants to come first (scripts/sanitize)
-    env_ = {"LD_PRELOAD=" + lib, "FAKETIME_TIMESTAMP_FILE=" + clock_, "FAKETIME_NO_CACHE=1",
-            "FAKETIME_DONT_FAKE_MONOTONIC=1",
+    env_ = {std::string("LD_PRELOAD=") + DEPOWDER_CLOCK_STEP_LIB, "DEPOWDER_CLOCK_STEP_FILE=" + clock_,
             std::string("ASAN_OPTIONS=") + (asan ? std::string(asan) + ":" : "") + "verify_asan_link_order=0"};
     PlannerProcess::SetUp();
   }
-  /// Sets the system clock's offset, e.g. "-3600" (an hour back).
+  /// Sets the system clock's offset in seconds, e.g. "-3600" (an hour back).
   void step(const std::string& offset) { std::ofstream(clock_) << offset << "\n"; }
   const std::string clock_ = process_.dir() + "/clock";
 };
