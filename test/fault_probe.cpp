@@ -50,7 +50,7 @@ int usage() {
                "       fault_probe future [--ahead S]\n"
                "       fault_probe report CASE LOG --cell FILE --at UTIME [--until UTIME] [--step S]\n"
                "  CASE: tracker_killed | link_cut | estop | garbage | camera_silent | controller_drop | clock_jump |\n"
-               "        clock_step (the host's system clock stepped S seconds at UTIME)\n";
+               "        clock_step (the host's system clock stepped S seconds at UTIME, and back at --until)\n";
   return 2;
 }
 
@@ -555,44 +555,60 @@ int report(const std::string& fault, const std::string& log_path, const std::str
     if (resumed) c.measured("fault -> following a plan from a later frame", (resumed - at) * 1e-6, "s");
     c.check(resumed && resumed - at < 5000000, "the arm followed plans from later frames within 5 s");
   } else if (fault == "clock_step") {
-    // Every process of the host saw its system clock step an hour back at `at` (the times here
-    // are put back on the clock before it). The driver's plan, from a frame now an hour ahead of
-    // its clock, is stopped; the camera proxy and the planner start their time over on the second
-    // frame and input from the new clock; no heartbeat, timed on the steady clock, falls silent.
-    int points = 0;
-    for (const point_cloud_t& p : log.clouds) points += p.utime > at + 1000000 && p.utime <= at + 11000000;
-    c.measured("POINTS from 1 to 11 s after the step", points, "");
-    c.check(points >= 240, "POINTS kept coming (24 a second or more)");
+    // Every process of the host saw its system clock step back at `at` and forward again, to
+    // the right time, at `until` (the times here are put back on the clock before the steps).
+    // Back: the driver stops the plan whose frame is now ahead of its clock, and the camera proxy
+    // and the planner start their time over on the second frame and input of the new clock.
+    // Forward: the driver stops the plan now that old, and the camera proxy refuses a camera's
+    // first frame as far ahead and takes its second, which confirms it (one camera's confirmed
+    // jump moves the newest time on: the other's first frame may then be taken). Neither loses the arm for
+    // long, and no heartbeat, timed on the steady clock, falls silent.
+    if (until == std::numeric_limits<std::int64_t>::max()) return usage();
+    for (const auto& [step_at, name] : {std::pair{at, "back"}, std::pair{until, "forward"}}) {
+      int points = 0;
+      for (const point_cloud_t& p : log.clouds) points += p.utime > step_at + 1000000 && p.utime <= step_at + 11000000;
+      c.measured(std::string("POINTS from 1 to 11 s after the step ") + name, points, "");
+      c.check(points >= 240, std::string("POINTS kept coming after the step ") + name + " (24 a second or more)");
+      const robot_state_t* held = nullptr;
+      for (const robot_state_t& s : log.states)
+        if (!held && s.utime >= step_at && s.mode == robot_state_t::MODE_HOLDING) held = &s;
+      std::printf("driver's reason after the step %s: %s\n", name, held ? held->mode_reason.c_str() : "");
+      const char* expected = step_at == at ? "ahead of this host's clock" : " s old (limit";
+      c.check(held && held->mode_reason.find(expected) != std::string::npos,
+              std::string("the driver stopped the plan that the step ") + name + " made " +
+                  (step_at == at ? "ahead of its clock" : "stale"));
+      if (held) c.measured(std::string("step ") + name + " -> driver holding", (held->utime - step_at) * 1e-6, "s");
+      const std::int64_t resumed =
+          followingFramesAfter(log, step_at, step_at == at ? until : std::numeric_limits<std::int64_t>::max());
+      if (resumed)
+        c.measured(std::string("step ") + name + " -> following a plan from a frame after it", (resumed - step_at) * 1e-6,
+                   "s");
+      c.check(resumed && resumed - step_at < 5000000,
+              std::string("the arm followed plans from frames after the step ") + name + " within 5 s");
+    }
     auto stats = largestStats(log);
+    c.measured("depowder-camera frames refused as far ahead", stats["depowder-camera"]["dropped_ahead"], "");
+    const double refused = stats["depowder-camera"]["dropped_ahead"];
+    c.check(refused >= 1 && refused <= 2, "the camera proxy refused a frame of each camera at most, at the step forward");
     for (const char* p : {"depowder-camera", "depowder-planner"}) {
       c.measured(std::string(p) + " clock restarts", stats[p]["clock_restarts"], "");
-      c.check(stats[p]["clock_restarts"] == 1, std::string(p) + " started its time over, once");
+      c.check(stats[p]["clock_restarts"] == 1, std::string(p) + " started its time over once, at the step back");
     }
-    // The longest silence of each process's heartbeat (every 0.5 s) from 5 s before the step
-    // to 20 s after it, counting the silence to the end of that window.
+    // The longest silence of each process's heartbeat (every 0.5 s) from 5 s before the first
+    // step to 20 s after the second, counting the silence to the end of that window.
+    const std::int64_t from = at - 5000000, to = until + 20000000;
     std::map<std::string, std::int64_t> last, longest;
     for (const heartbeat_t& h : log.heartbeats) {
-      if (h.utime < at - 5000000 || h.utime > at + 20000000) continue;
+      if (h.utime < from || h.utime > to) continue;
       if (last.count(h.process)) longest[h.process] = std::max(longest[h.process], h.utime - last[h.process]);
       last[h.process] = h.utime;
     }
     for (const char* p :
          {"depowder-camera", "depowder-tracker", "depowder-progress", "depowder-planner", "depowder-driver"}) {
-      if (last.count(p)) longest[p] = std::max(longest[p], at + 20000000 - last[p]);
-      c.measured(std::string(p) + "'s longest heartbeat silence around the step", longest[p] * 1e-6, "s");
+      if (last.count(p)) longest[p] = std::max(longest[p], to - last[p]);
+      c.measured(std::string(p) + "'s longest heartbeat silence around the steps", longest[p] * 1e-6, "s");
       c.check(last.count(p) && longest[p] < 2000000, std::string(p) + "'s heartbeat never fell silent for 2 s");
     }
-    std::int64_t held = 0;
-    std::string why;
-    for (const robot_state_t& s : log.states)
-      if (!held && s.utime >= at && s.mode == robot_state_t::MODE_HOLDING) held = s.utime, why = s.mode_reason;
-    std::printf("driver's reason: %s\n", why.c_str());
-    c.check(why.find("ahead of this host's clock") != std::string::npos,
-            "the driver stopped the plan whose frame is now ahead of its clock");
-    if (held) c.measured("step -> driver holding", (held - at) * 1e-6, "s");
-    const std::int64_t resumed = followingFramesAfter(log, at, std::numeric_limits<std::int64_t>::max());
-    if (resumed) c.measured("step -> following a plan from a frame after it", (resumed - at) * 1e-6, "s");
-    c.check(resumed && resumed - at < 5000000, "the arm followed plans from frames after the step within 5 s");
     const int restarts = restartsOf(log, "");
     c.measured("restarts of any process", restarts, "");
     c.check(restarts == 0, "no process died");

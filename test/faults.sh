@@ -16,11 +16,12 @@
 #                    reports it, reconnects, re-takes the arm, no jump
 #   clock_jump       one camera frame published again stamped a year ahead: the camera proxy
 #                    refuses it, nothing downstream sees it or starts over; the run completes
-#   clock_step       the host's system clock stepped an hour back while vacuuming (NTP, an
-#                    operator; test/clock_step.cpp preloaded into every process): the driver
-#                    stops the plan now an hour ahead of its clock, the camera proxy and the
-#                    planner start their time over, no heartbeat falls silent, the arm resumes;
-#                    the run completes
+#   clock_step       the host's system clock stepped an hour back while vacuuming, and forward
+#                    again 20 s later (NTP, an operator; test/clock_step.cpp preloaded into every
+#                    process): the driver stops the plan each step makes ahead of its clock or
+#                    stale; back, the camera proxy and the planner start their time over;
+#                    forward, the camera proxy refuses one frame; no heartbeat falls silent, the
+#                    arm resumes after each; the run completes
 # usage: test/faults.sh BUILD_DIR SOURCE_DIR FAULT CLOCK_STEP_LIB   (needs root; prints what it
 # measured; CLOCK_STEP_LIB: test/clock_step.cpp built, for clock_step)
 set -eu
@@ -161,7 +162,9 @@ clock_step)
   on 1 "$PROBE" wait vacuum --timeout 240 > /dev/null
   sleep 3
   at=$(now); echo -3600 > clock
-  until_opt="--step -3600"
+  sleep 20
+  until=$(now); echo 0 > clock
+  until_opt="--until $until --step -3600"
   wait_run ;;
 camera_silent | controller_drop)
   # sim.faults at t = 70 s; 20 s of it, then 10 s more.
