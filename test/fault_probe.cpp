@@ -581,15 +581,16 @@ int report(const std::string& fault, const std::string& log_path, const std::str
       const std::int64_t resumed =
           followingFramesAfter(log, step_at, step_at == at ? until : std::numeric_limits<std::int64_t>::max());
       if (resumed)
-        c.measured(std::string("step ") + name + " -> following a plan from a frame after it", (resumed - step_at) * 1e-6,
-                   "s");
+        c.measured(std::string("step ") + name + " -> following a plan from a frame after it",
+                   (resumed - step_at) * 1e-6, "s");
       c.check(resumed && resumed - step_at < 5000000,
               std::string("the arm followed plans from frames after the step ") + name + " within 5 s");
     }
     auto stats = largestStats(log);
     c.measured("depowder-camera frames refused as far ahead", stats["depowder-camera"]["dropped_ahead"], "");
     const double refused = stats["depowder-camera"]["dropped_ahead"];
-    c.check(refused >= 1 && refused <= 2, "the camera proxy refused a frame of each camera at most, at the step forward");
+    c.check(refused >= 1 && refused <= 2,
+            "the camera proxy refused a frame of each camera at most, at the step forward");
     for (const char* p : {"depowder-camera", "depowder-planner"}) {
       c.measured(std::string(p) + " clock restarts", stats[p]["clock_restarts"], "");
       c.check(stats[p]["clock_restarts"] == 1, std::string(p) + " started its time over once, at the step back");
