@@ -561,34 +561,39 @@ int report(const std::string& fault, const std::string& log_path, const std::str
     // and the planner start their time over on the second frame and input of the new clock.
     // Forward: the driver stops the plan now that old, and the camera proxy refuses a camera's
     // first frame as far ahead and takes its second, which confirms it (one camera's confirmed
-    // jump moves the newest time on: the other's first frame may then be taken). Neither loses the arm for
-    // long, and no heartbeat, timed on the steady clock, falls silent.
+    // jump moves the newest time on: the other's first frame may then be taken). Neither loses
+    // the arm for long, and no heartbeat, timed on the steady clock, falls silent.
     if (until == std::numeric_limits<std::int64_t>::max()) return usage();
-    for (const auto& [step_at, name] : {std::pair{at, "back"}, std::pair{until, "forward"}}) {
+    struct Step {
+      std::int64_t at;
+      const char* name;
+      const char* reason;  ///< in the driver's reason for the stop it makes
+      const char* made;
+      std::int64_t next;  ///< the next step (frames after it are not this one's)
+    };
+    for (const Step& st :
+         {Step{at, "back", "ahead of this host's clock", "ahead of its clock", until},
+          Step{until, "forward", " s old (limit", "stale", std::numeric_limits<std::int64_t>::max()}}) {
+      const std::string after = std::string(" the step ") + st.name;
       int points = 0;
-      for (const point_cloud_t& p : log.clouds) points += p.utime > step_at + 1000000 && p.utime <= step_at + 11000000;
-      c.measured(std::string("POINTS from 1 to 11 s after the step ") + name, points, "");
-      c.check(points >= 240, std::string("POINTS kept coming after the step ") + name + " (24 a second or more)");
+      for (const point_cloud_t& p : log.clouds) points += p.utime > st.at + 1000000 && p.utime <= st.at + 11000000;
+      c.measured("POINTS from 1 to 11 s after" + after, points, "");
+      c.check(points >= 240, "POINTS kept coming after" + after + " (24 a second or more)");
       const robot_state_t* held = nullptr;
       for (const robot_state_t& s : log.states)
-        if (!held && s.utime >= step_at && s.mode == robot_state_t::MODE_HOLDING) held = &s;
-      std::printf("driver's reason after the step %s: %s\n", name, held ? held->mode_reason.c_str() : "");
-      const char* expected = step_at == at ? "ahead of this host's clock" : " s old (limit";
-      c.check(held && held->mode_reason.find(expected) != std::string::npos,
-              std::string("the driver stopped the plan that the step ") + name + " made " +
-                  (step_at == at ? "ahead of its clock" : "stale"));
-      if (held) c.measured(std::string("step ") + name + " -> driver holding", (held->utime - step_at) * 1e-6, "s");
-      const std::int64_t resumed =
-          followingFramesAfter(log, step_at, step_at == at ? until : std::numeric_limits<std::int64_t>::max());
+        if (!held && s.utime >= st.at && s.mode == robot_state_t::MODE_HOLDING) held = &s;
+      std::printf("driver's reason after%s: %s\n", after.c_str(), held ? held->mode_reason.c_str() : "");
+      c.check(held && held->mode_reason.find(st.reason) != std::string::npos,
+              "the driver stopped the plan that" + after + " made " + st.made);
+      if (held) c.measured(after.substr(1) + " -> driver holding", (held->utime - st.at) * 1e-6, "s");
+      const std::int64_t resumed = followingFramesAfter(log, st.at, st.next);
       if (resumed)
-        c.measured(std::string("step ") + name + " -> following a plan from a frame after it",
-                   (resumed - step_at) * 1e-6, "s");
-      c.check(resumed && resumed - step_at < 5000000,
-              std::string("the arm followed plans from frames after the step ") + name + " within 5 s");
+        c.measured(after.substr(1) + " -> following a plan from a frame after it", (resumed - st.at) * 1e-6, "s");
+      c.check(resumed && resumed - st.at < 5000000, "the arm followed plans from frames after" + after + " within 5 s");
     }
     auto stats = largestStats(log);
-    c.measured("depowder-camera frames refused as far ahead", stats["depowder-camera"]["dropped_ahead"], "");
     const double refused = stats["depowder-camera"]["dropped_ahead"];
+    c.measured("depowder-camera frames refused as far ahead", refused, "");
     c.check(refused >= 1 && refused <= 2,
             "the camera proxy refused a frame of each camera at most, at the step forward");
     for (const char* p : {"depowder-camera", "depowder-planner"}) {
