@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "depowder/clock.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/point_cloud_t.hpp"
@@ -39,8 +40,9 @@ int usage(const std::string& error = "") {
          "  REFIT when the refit replaced the pose, RESET when the filter started again\n"
          "  (filter.reset_frames) and TEMPLATE when the template was derived again (Alg. 1, line 13); then\n"
          "  the error percentiles over the frames that reported TRACKING.\n"
-         "  Times are seconds from the first POINTS frame. Exit 1 if the log has no POINTS frame or\n"
-         "  no truth.\n";
+         "  Times are seconds from the first POINTS frame, leaving out any step of more than 2 s between\n"
+         "  two frames (the recording host's clock stepped), which stderr names. Exit 1 if the log has\n"
+         "  no POINTS frame or no truth.\n";
   return error.empty() ? 0 : 2;
 }
 
@@ -94,7 +96,8 @@ int main(int argc, char** argv) {
     bool have_truth = false;
     Point nozzle = Point::Constant(NAN);  // its tip, cell frame, and its tool at the newest SIM_TRUTH
     int tool = 0;
-    std::int64_t t0 = -1, frames = 0, bad = 0;
+    std::int64_t previous = -1, frames = 0, bad = 0;  // the previous POINTS frame's utime
+    double t = 0;                                     // s along the run (below)
     double next_print = from;
     std::map<std::string, std::vector<double>> rot, trans;
     std::map<std::string, std::map<std::string, int>> statuses;
@@ -118,8 +121,17 @@ int main(int argc, char** argv) {
           ++bad;
           continue;
         }
-        if (t0 < 0) t0 = m.utime;
-        const double t = 1e-6 * static_cast<double>(m.utime - t0);
+        // Seconds along the run. Two frames more than kClockJumpBack apart, back or ahead, are a
+        // step of the recording host's clock (or every camera silent): the time goes on from the
+        // frame before, so that the frames after a step back are not before the start.
+        if (previous >= 0 && (clockWentBack(previous, m.utime) || clockJumpedAhead(previous, m.utime)))
+          std::fprintf(stderr,
+                       "depowder-retrack: POINTS at %.2f s is stamped %+.1f s from the frame before (the "
+                       "recording host's clock stepped, or every camera was silent): the time goes on from it\n",
+                       t, secondsBetween(m.utime, previous));
+        else if (previous >= 0)
+          t += secondsBetween(m.utime, previous);
+        previous = m.utime;
         if (t > to) break;
         // Every frame is tracked, also before --from: the tracker's state depends on them all.
         const std::vector<part_pose_t> poses = node.onPoints(m);
