@@ -96,8 +96,8 @@ int main(int argc, char** argv) {
     bool have_truth = false;
     Point nozzle = Point::Constant(NAN);  // its tip, cell frame, and its tool at the newest SIM_TRUTH
     int tool = 0;
-    std::int64_t previous = -1, frames = 0, bad = 0;  // the previous POINTS frame's utime
-    double t = 0;                                     // s along the run (below)
+    std::int64_t previous = 0, frames = 0, bad = 0;  // previous: the utime of the frame before
+    double t = 0;                                    // s along the run (below)
     double next_print = from;
     std::map<std::string, std::vector<double>> rot, trans;
     std::map<std::string, std::map<std::string, int>> statuses;
@@ -124,12 +124,12 @@ int main(int argc, char** argv) {
         // Seconds along the run. Two frames more than kClockJumpBack apart, back or ahead, are a
         // step of the recording host's clock (or every camera silent): the time goes on from the
         // frame before, so that the frames after a step back are not before the start.
-        if (previous >= 0 && (clockWentBack(previous, m.utime) || clockJumpedAhead(previous, m.utime)))
+        if (frames > 0 && (clockWentBack(previous, m.utime) || clockJumpedAhead(previous, m.utime)))
           std::fprintf(stderr,
                        "depowder-retrack: POINTS at %.2f s is stamped %+.1f s from the frame before (the "
                        "recording host's clock stepped, or every camera was silent): the time goes on from it\n",
                        t, secondsBetween(m.utime, previous));
-        else if (previous >= 0)
+        else if (frames > 0)
           t += secondsBetween(m.utime, previous);
         previous = m.utime;
         if (t > to) break;
