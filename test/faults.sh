@@ -20,8 +20,8 @@
 #                    again 20 s later (NTP, an operator; test/clock_step.cpp preloaded into every
 #                    process): the driver stops the plan each step makes ahead of its clock or
 #                    stale; back, the camera proxy and the planner start their time over;
-#                    forward, the camera proxy refuses one frame; no heartbeat falls silent, the
-#                    arm resumes after each; the run completes
+#                    forward, the camera proxy refuses the first frame of each camera at most; no
+#                    heartbeat falls silent, the arm resumes after each; the run completes
 # usage: test/faults.sh BUILD_DIR SOURCE_DIR FAULT CLOCK_STEP_LIB   (needs root; prints what it
 # measured; CLOCK_STEP_LIB: test/clock_step.cpp built, for clock_step)
 set -eu
