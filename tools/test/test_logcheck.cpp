@@ -3,9 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <fstream>
 #include <set>
-#include <sstream>
 #include <string>
 #include <utility>
 
@@ -55,16 +53,7 @@ class LogCheck : public ::testing::Test {
   }
   std::string path(const std::string& file) const { return logcheck_.dir() + "/" + file; }
   // Runs depowder-logcheck to its end: its exit status, and what it printed in `out`.
-  int run(const std::vector<std::string>& args, std::string* out) const {
-    std::vector<std::string> argv{logcheck_.exe()};
-    argv.insert(argv.end(), args.begin(), args.end());
-    testutil::ChildProcess p(argv, path("logcheck.out"));
-    const int status = p.wait(30);
-    std::stringstream text;
-    text << std::ifstream(path("logcheck.out")).rdbuf();
-    *out = text.str();
-    return status;
-  }
+  int run(const std::vector<std::string>& args, std::string* out) const { return logcheck_.run(args, out, 30); }
   int compare(const std::string& output, std::string* out) const {
     return run({"compare", output, path("expected.txt")}, out);
   }

@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -47,14 +46,7 @@ class Retrack : public ::testing::Test {
   }
   std::string path(const std::string& file) const { return retrack_.dir() + "/" + file; }
   /// Runs depowder-retrack on `log` to its end: its exit status, and what it printed in `out`.
-  int run(const std::string& log, std::string* out) const {
-    testutil::ChildProcess p({retrack_.exe(), log, "--cell", kCell}, path("retrack.out"));
-    const int status = p.wait(60);
-    std::stringstream text;
-    text << std::ifstream(path("retrack.out")).rdbuf();
-    *out = text.str();
-    return status;
-  }
+  int run(const std::string& log, std::string* out) const { return retrack_.run({log, "--cell", kCell}, out); }
   /// What it printed from the line "N frames tracked" on: the counts and the error percentiles.
   static std::string summary(const std::string& out) {
     const std::size_t at = out.find(" frames tracked");

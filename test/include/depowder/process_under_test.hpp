@@ -6,6 +6,7 @@
 //   tracker.start({"--config", tracker.write("cell.yaml", yaml), "--url", url, "--prefix", tracker.prefix()});
 //   ...
 //   EXPECT_EQ(tracker.terminate(), 0);  // a clean exit
+// A tool that runs to its end: `int status = logcheck.run({"compare", ...}, &printed);`.
 #pragma once
 
 #include <unistd.h>
@@ -14,6 +15,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -63,6 +65,19 @@ class ProcessUnderTest {
     argv.push_back(exe());
     argv.insert(argv.end(), args.begin(), args.end());
     child_ = std::make_unique<ChildProcess>(argv);
+  }
+
+  /// Runs the executable with `args` to its end, for a tool: its exit code (-1 if it did not
+  /// exit within `timeout_s`), and what it printed on stdout and stderr in `out`.
+  int run(const std::vector<std::string>& args, std::string* out, double timeout_s = 60) const {
+    std::vector<std::string> argv{exe()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    const std::string log = dir_ + "/run.out";
+    const int status = ChildProcess(argv, log).wait(timeout_s);
+    std::stringstream text;
+    text << std::ifstream(log).rdbuf();
+    *out = text.str();
+    return status;
   }
 
   /// SIGTERM, then its exit code (128 + the signal if one ended it); -1 if it was not running
