@@ -124,13 +124,15 @@ int main(int argc, char** argv) {
         // Seconds along the run. Two frames more than kClockJumpBack apart, back or ahead, are a
         // step of the recording host's clock (or every camera silent): the time goes on from the
         // frame before, so that the frames after a step back are not before the start.
-        if (frames > 0 && (clockWentBack(previous, m.utime) || clockJumpedAhead(previous, m.utime)))
-          std::fprintf(stderr,
-                       "depowder-retrack: POINTS at %.2f s is stamped %+.1f s from the frame before (the "
-                       "recording host's clock stepped, or every camera was silent): the time goes on from it\n",
-                       t, secondsBetween(m.utime, previous));
-        else if (frames > 0)
-          t += secondsBetween(m.utime, previous);
+        if (frames > 0) {
+          if (clockWentBack(previous, m.utime) || clockJumpedAhead(previous, m.utime))
+            std::fprintf(stderr,
+                         "depowder-retrack: POINTS at %.2f s is stamped %+.1f s from the frame before (the "
+                         "recording host's clock stepped, or every camera was silent): the time goes on from it\n",
+                         t, secondsBetween(m.utime, previous));
+          else
+            t += secondsBetween(m.utime, previous);
+        }
         previous = m.utime;
         if (t > to) break;
         // Every frame is tracked, also before --from: the tracker's state depends on them all.
