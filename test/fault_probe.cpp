@@ -31,6 +31,7 @@
 #include "depowder/node/bus.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/node/log_time.hpp"
 #include "depowder/nozzle_plan_t.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/point_cloud_t.hpp"
@@ -591,6 +592,24 @@ int report(const std::string& fault, const std::string& log_path, const std::str
         c.measured(after.substr(1) + " -> following a plan from a frame after it", (resumed - st.at) * 1e-6, "s");
       c.check(resumed && resumed - st.at < 5000000, "the arm followed plans from frames after" + after + " within 5 s");
     }
+    // The logger's clock stepped too, and its event times with it: the heartbeats' uptime_s tell
+    // both steps and nothing else, and the log mended of them has no gap a replay would wait out.
+    const node::LogTimes times = node::mendLogTimes(log_path);
+    for (const node::LogGap& g : times.gaps) std::printf("log: %s\n", times.describe(g).c_str());
+    c.check(times.gaps.size() == 2 && times.steps() == 2, "the log's event times hold the two steps, and no other gap");
+    for (std::size_t k = 0; k < 2 && k < times.gaps.size(); ++k) {
+      const node::LogGap& g = times.gaps[k];
+      const double found = (g.recorded_us - g.mended_us) * 1e-6, expected = (k == 0 ? step : -step) * 1e-6;
+      const std::int64_t where = times.utime[g.event] - (k == 0 ? at : until);
+      c.measured(std::string("step ") + (k == 0 ? "back" : "forward") + " found in the log's event times", found, "s");
+      c.check(
+          std::abs(found - expected) < 0.1 && where > -500000 && where < 1000000,
+          std::string("the log's step ") + (k == 0 ? "back" : "forward") + " was found to 0.1 s, where it was made");
+    }
+    std::int64_t widest = 0;
+    for (std::size_t i = 1; i < times.utime.size(); ++i) widest = std::max(widest, times.utime[i] - times.utime[i - 1]);
+    c.measured("widest gap of the mended log's event times", widest * 1e-6, "s");
+    c.check(widest < 1000000, "the mended log has no gap of 1 s");
     auto stats = largestStats(log);
     const double refused = stats["depowder-camera"]["dropped_ahead"];
     c.measured("depowder-camera frames refused as far ahead", refused, "");

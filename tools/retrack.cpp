@@ -15,6 +15,7 @@
 #include "depowder/clock.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
+#include "depowder/node/log_time.hpp"
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/sim_truth_t.hpp"
 #include "depowder/stats.hpp"
@@ -40,9 +41,9 @@ int usage(const std::string& error = "") {
          "  REFIT when the refit replaced the pose, RESET when the filter started again\n"
          "  (filter.reset_frames) and TEMPLATE when the template was derived again (Alg. 1, line 13); then\n"
          "  the error percentiles over the frames that reported TRACKING.\n"
-         "  Times are seconds from the first POINTS frame, leaving out any step of more than 2 s between\n"
-         "  two frames (the recording host's clock stepped), which stderr names. Exit 1 if the log has\n"
-         "  no POINTS frame or no truth.\n";
+         "  Times are seconds from the first POINTS frame along the log's event times, with the steps of\n"
+         "  the recording host's clock taken out as depowder-logmend does; stderr names each step.\n"
+         "  Exit 1 if the log has no POINTS frame or no truth.\n";
   return error.empty() ? 0 : 2;
 }
 
@@ -90,20 +91,24 @@ int main(int argc, char** argv) {
     options.threads = 1;  // deterministic and one core: the frames come from the file, not a clock
     tracker::TrackerNode node(cell, options);
 
+    // Seconds along the run: the log's event times with the recording clock's steps taken out, so
+    // that the frames after a step back are not before the start.
+    const node::LogTimes times = node::mendLogTimes(log_path, prefix + "HEARTBEAT");
+    for (const node::LogGap& gap : times.gaps) std::cerr << "depowder-retrack: " << times.describe(gap) << "\n";
     lcm::LogFile log(log_path, "r");
     if (!log.good()) throw std::runtime_error("cannot read LCM log '" + log_path + "'");
     std::map<std::string, Pose> truth;  // the newest SIM_TRUTH at or before the frame
     bool have_truth = false;
     Point nozzle = Point::Constant(NAN);  // its tip, cell frame, and its tool at the newest SIM_TRUTH
     int tool = 0;
-    std::int64_t previous = 0, frames = 0, bad = 0;  // previous: the utime of the frame before
-    double t = 0;                                    // s along the run (below)
+    std::int64_t start = 0, frames = 0, bad = 0;  // start: the first frame's event time, mended
     double next_print = from;
     std::map<std::string, std::vector<double>> rot, trans;
     std::map<std::string, std::map<std::string, int>> statuses;
     std::map<std::string, std::pair<double, double>> last;       // deg, cm
     std::map<std::string, int> refits, resets, moving, falling;  // frames, per part
-    for (const lcm::LogEvent* e; (e = log.readNextEvent()) != nullptr;) {
+    std::size_t event = 0;                                       // its index in the log
+    for (const lcm::LogEvent* e; event < times.utime.size() && (e = log.readNextEvent()) != nullptr; ++event) {
       if (e->channel == prefix + "SIM_TRUTH") {
         sim_truth_t m;
         if (m.decode(e->data, 0, e->datalen) < 0) {
@@ -121,19 +126,8 @@ int main(int argc, char** argv) {
           ++bad;
           continue;
         }
-        // Seconds along the run. Two frames more than kClockJumpBack apart, back or ahead, are a
-        // step of the recording host's clock (or every camera silent): the time goes on from the
-        // frame before, so that the frames after a step back are not before the start.
-        if (frames > 0) {
-          if (clockWentBack(previous, m.utime) || clockJumpedAhead(previous, m.utime))
-            std::fprintf(stderr,
-                         "depowder-retrack: POINTS at %.2f s is stamped %+.1f s from the frame before (the "
-                         "recording host's clock stepped, or every camera was silent): the time goes on from it\n",
-                         t, secondsBetween(m.utime, previous));
-          else
-            t += secondsBetween(m.utime, previous);
-        }
-        previous = m.utime;
+        if (frames == 0) start = times.utime[event];
+        const double t = secondsBetween(times.utime[event], start);
         if (t > to) break;
         // Every frame is tracked, also before --from: the tracker's state depends on them all.
         const std::vector<part_pose_t> poses = node.onPoints(m);

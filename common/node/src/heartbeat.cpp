@@ -37,6 +37,7 @@ Heartbeat::Heartbeat(Bus& bus, std::string process, double period_s) : bus_(bus)
   msg_.host = hostName();
   msg_.pid = static_cast<std::int32_t>(getpid());
   msg_.state = heartbeat_t::STARTING;
+  start_ = steadyUtime();
   last_cpu_s_ = processCpuSeconds();
 }
 
@@ -72,6 +73,10 @@ void Heartbeat::publish() {
     msg_.stat_names.push_back(name);
     msg_.stat_values.push_back(value);
   }
+  // The process's time on the steady clock: with it a log's reader tells a step of the recording
+  // host's clock from a silence (log_time.hpp).
+  msg_.stat_names.push_back("uptime_s");
+  msg_.stat_values.push_back((now - start_) * 1e-6);
   msg_.num_stats = static_cast<std::int32_t>(msg_.stat_names.size());
   bus_.publish("HEARTBEAT", msg_);
 }

@@ -1,4 +1,5 @@
-// Publishes HEARTBEAT (2 Hz by default) with the bus counters, CPU and memory.
+// Publishes HEARTBEAT (2 Hz by default) with the bus counters, CPU and memory, the process's
+// figures and its uptime_s (seconds on the steady clock since it started).
 #pragma once
 
 #include <cstdint>
@@ -30,6 +31,7 @@ class Heartbeat {
   Bus& bus_;
   heartbeat_t msg_;
   double period_s_;
+  std::int64_t start_ = 0;         ///< node::steadyUtime when the process started its heartbeat
   std::int64_t last_publish_ = 0;  ///< node::steadyUtime of the last heartbeat (0: none yet)
   double last_cpu_s_ = 0;
   std::int64_t dropped_ = 0;
