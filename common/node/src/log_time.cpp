@@ -88,7 +88,7 @@ LogTimes mendTimes(const std::vector<std::int64_t>& recorded, const std::vector<
       }
       if (best_span < 0) {
         if (g < 0) found.kind = LogGap::kStep, mended = 0;
-      } else if (std::llabs(minus(g, passed)) > kLogStepTolerance) {
+      } else if (const std::int64_t off = minus(g, passed); off > kLogStepTolerance || off < -kLogStepTolerance) {
         found.kind = LogGap::kStep, mended = passed;
       } else {
         found.kind = LogGap::kSilence;
