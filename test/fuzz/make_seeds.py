@@ -111,3 +111,22 @@ square = [(0.05, 0.05, 0.15), (-0.05, 0.05, 0.12), (-0.05, -0.05, 0.12), (0.05, 
 line = [(0.0, 0.0, 0.30), (0.1, 0.0, 0.2)]
 write("plan", "square_then_line", step(150, plan(1, square, 0.2, 1)) + step(60, plan(2, line, 0.25, 2)))
 write("plan", "square_stopped", step(100, plan(1, square, 0.1, 1)) + step(50, b""))
+
+
+# fuzz_log_time: records [0][8, 2 bytes LE][time delta, int64 LE] for an event and
+# [1][17, 2 bytes LE][time delta][process byte][uptime delta, int64 LE] for a heartbeat. Two
+# cameras at 30 Hz and two processes' heartbeats at 2 Hz for 8 s; the recording clock an hour
+# back from 2 s to 4 s, and nothing at all from 5 s to 6.5 s.
+sent = [(t * 33333 + cam * 100, None) for t in range(240) for cam in range(2)]
+sent += [(t * 500000 + p * 170000, p) for t in range(16) for p in range(2)]
+sent = sorted((e for e in sent if not 5000000 <= e[0] < 6500000), key=lambda e: e[0])
+log_time, last, uptime = b"", 0, [0, 0]
+for t, p in sent:
+    rec = 1795000000000000 + t - (3600000000 if 2000000 <= t < 4000000 else 0)
+    if p is None:
+        log_time += struct.pack("<BHq", 0, 8, rec - last)
+    else:
+        log_time += struct.pack("<BHqBq", 1, 17, rec - last, p, t - uptime[p])
+        uptime[p] = t
+    last = rec
+write("log_time", "steps_and_silence", log_time)
