@@ -16,12 +16,13 @@ namespace {
 int usage(const std::string& error = "") {
   if (!error.empty()) std::cerr << "depowder-logmend: " << error << "\n";
   std::cerr << "usage: depowder-logmend RUN.lcmlog [MENDED.lcmlog] [--prefix P]\n"
-               "  Prints each gap of RUN's event times beyond the ordinary: the time going back, or no\n"
-               "  event for more than 1 s. A process's heartbeats across a gap (their uptime_s, on the\n"
-               "  steady clock) tell a step of the recording host's clock from a silence; with none, a\n"
-               "  step back counts no time and a long gap is kept. With MENDED, writes the log again with\n"
-               "  each step taken out of its event times (channels, messages and their stamps unchanged),\n"
-               "  for lcm-logplayer. --prefix: the cell's channel prefix (its heartbeats on PHEARTBEAT).\n"
+               "  Prints each gap of RUN's event times beyond the ordinary: the time going back more\n"
+               "  than 0.25 s, or no event for more than 1 s. A process's heartbeats across a gap (their\n"
+               "  uptime_s, on the steady clock) tell a step of the recording host's clock from a silence;\n"
+               "  with none, a step back counts no time and a long gap is kept. With MENDED, writes the log\n"
+               "  again with each step taken out of its event times (channels, messages and their stamps\n"
+               "  unchanged), for lcm-logplayer. --prefix: the cell's channel prefix (its heartbeats on\n"
+               "  PHEARTBEAT).\n"
                "  Exit 0 when done, 2 when a log cannot be read or written.\n";
   return error.empty() ? 0 : 2;
 }
