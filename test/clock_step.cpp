@@ -2,13 +2,18 @@
 // process (LD_PRELOAD=.../libdepowder_clock_step.so), it adds to the system clock (clock_gettime
 // of CLOCK_REALTIME, gettimeofday, time) the offset in seconds written in the file named by
 // DEPOWDER_CLOCK_STEP_FILE, e.g. "-3600", read again every 10 ms. The steady clock, and every
-// sleep and wait on it, is left alone, as such a step leaves it.
+// sleep and wait on it, is left alone, as such a step leaves it. A step moves the kernel's stamps
+// of received packets as well, which no library can: a socket's SO_TIMESTAMP is therefore not
+// turned on (the call says it is), and LCM, finding no stamp on a packet, stamps it with the system
+// clock. Without this lcm-logger stamped a packet with the kernel's clock whenever LCM took a fresh
+// receive buffer, and a log of the step came out with both clocks mixed.
 //
 // Not libfaketime: its FAKETIME_DONT_FAKE_MONOTONIC, which leaves the steady clock alone, makes
 // clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) return at once in 0.9.10 (Debian 12's), so the
 // driver's slave loop spun (wolfcw/libfaketime issue 426).
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <sys/socket.h>
 #include <sys/time.h>
 #include <unistd.h>
 
@@ -20,6 +25,7 @@
 namespace {
 
 using ClockGettime = int (*)(clockid_t, timespec*);
+using SetSockOpt = int (*)(int, int, int, const void*, socklen_t);
 
 ClockGettime realClockGettime() {
   static const auto real = reinterpret_cast<ClockGettime>(dlsym(RTLD_NEXT, "clock_gettime"));
@@ -71,6 +77,12 @@ int gettimeofday(timeval* tv, void*) noexcept {
   tv->tv_sec = ts.tv_sec;
   tv->tv_usec = static_cast<suseconds_t>(ts.tv_nsec / 1000);
   return r;
+}
+
+int setsockopt(int fd, int level, int name, const void* value, socklen_t length) noexcept {
+  if (level == SOL_SOCKET && (name == SO_TIMESTAMP || name == SO_TIMESTAMPNS)) return 0;
+  static const auto real = reinterpret_cast<SetSockOpt>(dlsym(RTLD_NEXT, "setsockopt"));
+  return real(fd, level, name, value, length);
 }
 
 time_t time(time_t* out) noexcept {

@@ -315,6 +315,22 @@ std::int64_t followingFramesAfter(const Log& log, std::int64_t after, std::int64
   return 0;
 }
 
+/// POINTS stamped in (from, to].
+int pointsIn(const Log& log, std::int64_t from, std::int64_t to) {
+  return static_cast<int>(std::count_if(log.clouds.begin(), log.clouds.end(),
+                                        [&](const point_cloud_t& p) { return p.utime > from && p.utime <= to; }));
+}
+
+/// Checks that POINTS kept coming from 1 to 11 s after `t` at 80 % or more of the rate of the 5 s
+/// before `fault`: the cell's own rate, 30 a second or a sanitized build's third of it.
+void checkPointsKept(Checker& c, const Log& log, std::int64_t fault, std::int64_t t, const std::string& after) {
+  const int usual = 2 * pointsIn(log, fault - 5000000, fault), points = pointsIn(log, t + 1000000, t + 11000000);
+  c.measured("POINTS in 10 s before the fault (twice its last 5 s)", usual, "");
+  c.measured("POINTS from 1 to 11 s after" + after, points, "");
+  c.check(usual > 0 && points >= 0.8 * usual,
+          "POINTS kept coming after" + after + " (80 % of the rate before or more)");
+}
+
 int report(const std::string& fault, const std::string& log_path, const std::string& cell_path, std::int64_t at,
            std::int64_t until, std::int64_t step) {
   Log log = readLog(log_path);
@@ -531,17 +547,10 @@ int report(const std::string& fault, const std::string& log_path, const std::str
     // One frame a year ahead: the camera proxy refuses it as a bad stamp (the camera's next frame
     // does not confirm a clock jumped forward), so nothing downstream sees it or starts over.
     constexpr std::int64_t kDay = 86400LL * 1000000;
-    int ahead = 0, after = 0;
-    for (const point_cloud_t& p : log.clouds) {
-      if (p.utime > at + kDay)
-        ++ahead;
-      else if (p.utime > at + 1000000 && p.utime <= at + 11000000)
-        ++after;
-    }
+    const int ahead = pointsIn(log, at + kDay, std::numeric_limits<std::int64_t>::max());
     c.measured("POINTS stamped a day or more ahead", ahead, "");
     c.check(ahead == 0, "no time step from the future went out");
-    c.measured("POINTS from 1 to 11 s after it", after, "");
-    c.check(after >= 240, "POINTS kept coming (24 a second or more)");
+    checkPointsKept(c, log, at, at, " it");
     auto stats = largestStats(log);
     c.measured("depowder-camera frames refused as far ahead", stats["depowder-camera"]["dropped_ahead"], "");
     c.check(stats["depowder-camera"]["dropped_ahead"] == 1, "the camera proxy refused the frame and counted it");
@@ -576,10 +585,7 @@ int report(const std::string& fault, const std::string& log_path, const std::str
          {Step{at, "back", "ahead of this host's clock", "ahead of its clock", until},
           Step{until, "forward", " s old (limit", "stale", std::numeric_limits<std::int64_t>::max()}}) {
       const std::string after = std::string(" the step ") + st.name;
-      int points = 0;
-      for (const point_cloud_t& p : log.clouds) points += p.utime > st.at + 1000000 && p.utime <= st.at + 11000000;
-      c.measured("POINTS from 1 to 11 s after" + after, points, "");
-      c.check(points >= 240, "POINTS kept coming after" + after + " (24 a second or more)");
+      checkPointsKept(c, log, at, st.at, after);
       const robot_state_t* held = nullptr;
       for (const robot_state_t& s : log.states)
         if (!held && s.utime >= st.at && s.mode == robot_state_t::MODE_HOLDING) held = &s;

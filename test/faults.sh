@@ -101,7 +101,9 @@ fi
 faked=""
 if [ "$FAULT" = clock_step ]; then
   echo 0 > clock
-  faked="env LD_PRELOAD=$CLOCK_STEP_LIB DEPOWDER_CLOCK_STEP_FILE=$PWD/clock"
+  # Under AddressSanitizer its runtime must come first in the preloads unless told otherwise; the
+  # library only wraps the clock, which ASan does not intercept.
+  faked="env LD_PRELOAD=$CLOCK_STEP_LIB DEPOWDER_CLOCK_STEP_FILE=$PWD/clock ASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}verify_asan_link_order=0"
 fi
 launch() {  # launch HOST_INDEX HOST_NAME
   # shellcheck disable=SC2086
@@ -118,6 +120,14 @@ fi
 main_pid=${launcher_pids##* }
 stop_run() { for p in $launcher_pids; do kill -TERM "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
 wait_run() { wait "$main_pid" || true; }  # the monitor ends it when the part is done
+# wait_for COND: block until the live cell reaches COND (tracking | vacuum); if it never does, fail
+# with the end of each launcher's output, which says why (a process that would not start).
+wait_for() {
+  on "$main_host" "$PROBE" wait "$1" --timeout 240 > /dev/null && return
+  echo "FAILED: the cell never reached '$1'; the end of each launcher's output:"
+  for f in launch_*.out; do echo "== $f"; tail -n 20 "$f"; done
+  exit 1
+}
 # The wall-clock utime of the sim's "fault at" or "fault over at" line (its frames carry the
 # wall clock too).
 sim_utime() { sed -n "s/.*$1 at t = .* wall utime \([0-9]*\)).*/\1/p" run_*/sim.log | head -1; }
@@ -125,7 +135,7 @@ sim_utime() { sed -n "s/.*$1 at t = .* wall utime \([0-9]*\)).*/\1/p" run_*/sim.
 until_opt=""
 case $FAULT in
 tracker_killed)
-  on $main_host "$PROBE" wait tracking --timeout 240 > /dev/null
+  wait_for tracking
   sleep 10
   tracker=$(ip netns pids "$T-h1" | xargs -r ps -o pid=,comm= -p | awk '$2 == "depowder-tracke" || $2 == "depowder-tracker" {print $1}')
   [ -n "$tracker" ] || { echo "FAILED: no tracker process to kill"; exit 1; }
@@ -133,7 +143,7 @@ tracker_killed)
   echo "killed depowder-tracker (pid $tracker)"
   wait_run ;;
 link_cut)
-  on 2 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  wait_for vacuum
   sleep 3
   at=$(now); "$H" cut $T 3
   sleep 8
@@ -142,7 +152,7 @@ link_cut)
   sleep 20
   stop_run ;;
 estop)
-  on 1 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  wait_for vacuum
   sleep 2
   at=$(now); on 1 "$BIN/depowder-estop" stop --reason "fault test"
   sleep 3
@@ -150,16 +160,16 @@ estop)
   sleep 10
   stop_run ;;
 garbage)
-  on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
+  wait_for tracking
   at=$(now); on 1 "$PROBE" garbage --seconds 20 --rate 5 --seed 1
   wait_run ;;
 clock_jump)
-  on 1 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  wait_for vacuum
   sleep 3
   at=$(on 1 "$PROBE" future --ahead 31536000)
   wait_run ;;
 clock_step)
-  on 1 "$PROBE" wait vacuum --timeout 240 > /dev/null
+  wait_for vacuum
   sleep 3
   at=$(now); echo -3600 > clock
   sleep 20
@@ -168,7 +178,7 @@ clock_step)
   wait_run ;;
 camera_silent | controller_drop)
   # sim.faults at t = 70 s; 20 s of it, then 10 s more.
-  on 1 "$PROBE" wait tracking --timeout 240 > /dev/null
+  wait_for tracking
   while [ -z "$(sim_utime fault)" ]; do sleep 1; done
   at=$(sim_utime fault)
   if [ "$FAULT" = camera_silent ]; then
