@@ -321,11 +321,17 @@ int pointsIn(const Log& log, std::int64_t from, std::int64_t to) {
                                         [&](const point_cloud_t& p) { return p.utime > from && p.utime <= to; }));
 }
 
-/// Checks that POINTS kept coming from 1 to 11 s after `t` at 80 % or more of the rate of the 5 s
-/// before `fault`: the cell's own rate, 30 a second or a sanitized build's third of it.
-void checkPointsKept(Checker& c, const Log& log, std::int64_t fault, std::int64_t t, const std::string& after) {
-  const int usual = 2 * pointsIn(log, fault - 5000000, fault), points = pointsIn(log, t + 1000000, t + 11000000);
+/// POINTS per 10 s before `fault` (twice its last 5 s): the cell's own rate, 30 a second or a
+/// sanitized build's third of it.
+int usualPoints(Checker& c, const Log& log, std::int64_t fault) {
+  const int usual = 2 * pointsIn(log, fault - 5000000, fault);
   c.measured("POINTS in 10 s before the fault (twice its last 5 s)", usual, "");
+  return usual;
+}
+
+/// Checks that POINTS kept coming from 1 to 11 s after `t` at 80 % or more of `usual`.
+void checkPointsKept(Checker& c, const Log& log, int usual, std::int64_t t, const std::string& after) {
+  const int points = pointsIn(log, t + 1000000, t + 11000000);
   c.measured("POINTS from 1 to 11 s after" + after, points, "");
   c.check(usual > 0 && points >= 0.8 * usual,
           "POINTS kept coming after" + after + " (80 % of the rate before or more)");
@@ -550,7 +556,7 @@ int report(const std::string& fault, const std::string& log_path, const std::str
     const int ahead = pointsIn(log, at + kDay, std::numeric_limits<std::int64_t>::max());
     c.measured("POINTS stamped a day or more ahead", ahead, "");
     c.check(ahead == 0, "no time step from the future went out");
-    checkPointsKept(c, log, at, at, " it");
+    checkPointsKept(c, log, usualPoints(c, log, at), at, " it");
     auto stats = largestStats(log);
     c.measured("depowder-camera frames refused as far ahead", stats["depowder-camera"]["dropped_ahead"], "");
     c.check(stats["depowder-camera"]["dropped_ahead"] == 1, "the camera proxy refused the frame and counted it");
@@ -581,11 +587,12 @@ int report(const std::string& fault, const std::string& log_path, const std::str
       const char* made;
       std::int64_t next;  ///< the next step (frames after it are not this one's)
     };
+    const int usual_points = usualPoints(c, log, at);
     for (const Step& st :
          {Step{at, "back", "ahead of this host's clock", "ahead of its clock", until},
           Step{until, "forward", " s old (limit", "stale", std::numeric_limits<std::int64_t>::max()}}) {
       const std::string after = std::string(" the step ") + st.name;
-      checkPointsKept(c, log, at, st.at, after);
+      checkPointsKept(c, log, usual_points, st.at, after);
       const robot_state_t* held = nullptr;
       for (const robot_state_t& s : log.states)
         if (!held && s.utime >= st.at && s.mode == robot_state_t::MODE_HOLDING) held = &s;

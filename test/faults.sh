@@ -101,8 +101,8 @@ fi
 faked=""
 if [ "$FAULT" = clock_step ]; then
   echo 0 > clock
-  # Under AddressSanitizer its runtime must come first in the preloads unless told otherwise; the
-  # library only wraps the clock, which ASan does not intercept.
+  # Under AddressSanitizer its runtime must come first in the preloads unless told the order is
+  # meant: here the library's wrappers come first and pass each call on (RTLD_NEXT), through ASan's.
   faked="env LD_PRELOAD=$CLOCK_STEP_LIB DEPOWDER_CLOCK_STEP_FILE=$PWD/clock ASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}verify_asan_link_order=0"
 fi
 launch() {  # launch HOST_INDEX HOST_NAME
