@@ -133,9 +133,20 @@ Mesh loadMesh(const std::string& path, double scale) {
     fail(path, (ext.empty() ? "no extension" : "unknown extension '" + ext + "'") + " (expected .stl, .obj or .ply)");
   }
   if (mesh.triangles.empty()) fail(path, "no triangles");
+  if (!(std::isfinite(scale) && scale > 0.0))
+    fail(path, "scale " + std::to_string(scale) + " is not a positive number");
   for (auto& v : mesh.vertices) {
     if (!v.allFinite()) fail(path, "non-finite vertex coordinate");
     v *= scale;
+    if (!v.allFinite()) fail(path, "a vertex coordinate overflows once scaled");
+  }
+  Eigen::Vector3d lo = mesh.vertices.front(), hi = lo;
+  for (const auto& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  if (const double across = (hi - lo).maxCoeff(); across > kMaxMeshSize) {
+    std::ostringstream s;
+    s << "is " << across << " m across at scale " << scale << ", more than any cell's " << kMaxMeshSize
+      << " m (a mesh in millimetres wants a scale of 0.001)";
+    fail(path, s.str());
   }
   if (surfaceArea(mesh) <= 0.0) fail(path, "all triangles are degenerate (zero area)");
   return mesh;

@@ -93,7 +93,7 @@ std::vector<Element> parseHeader(const std::string& text, Format& format, std::s
     if (end == std::string::npos) end = text.size();
     line = text.substr(pos, end - pos);
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    pos = end + 1;
+    pos = std::min(end + 1, text.size());  // a last line may lack its newline
     return true;
   };
   std::string line;

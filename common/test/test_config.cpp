@@ -47,6 +47,9 @@ TEST(Config, BadKeysAndValuesNameFileKeyAndRange) {
   expectError("box: {size: [0.4, 0.3, -1]}\n", {"'box.size'", "(0, 5]"});
   expectError("box: {wall: 0.5}\n", {"'box.wall'", "out of range", "[0, 0.2]"});
   expectError("box: {wall: thick}\n", {"'box.wall'", "a number"});
+  // NaN compares false with both ends of a range, so it once passed every range check.
+  expectError("box: {wall: .nan}\n", {"'box.wall'", "value nan is out of range", "[0, 0.2]"});
+  expectError("parts:\n  - {name: p, mesh: a.stl, mesh_scale: .nan}\n", {"'parts[0].mesh_scale'", "out of range"});
   expectError("cameras:\n  - {name: A, width: 8}\n", {"'cameras[0].width'", "[16, 4096]"});
   expectError("cameras:\n  - {width: 320}\n", {"'cameras[0].name'", "required"});
   expectError("cameras:\n  - {name: A, colour: red}\n", {"unknown key 'colour'", "cameras[0]"});

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <tuple>
 
 #include "depowder/files.hpp"
 #include "depowder/mesh.hpp"
@@ -163,6 +164,48 @@ TEST(MeshLoad, PlyListLengthsAndIndicesAreChecked) {
     }
   }
   EXPECT_EQ(loadMesh(tmpFile("list.ply", head + "3 0 1 2\n")).triangles.size(), 1u);
+}
+
+// A header whose end_header is the file's last line, without a newline, once put the data one
+// byte past the end of the file: an ascii read beyond the buffer, and a binary file's declared
+// count reserved as it stood (a std::bad_alloc, not a MeshError).
+TEST(MeshLoad, PlyEndingAtItsHeaderIsRefused) {
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\nend_header";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"ply\nformat ascii 1.0\nelement vertex 1\n" + xyz, "expected a number"},
+      {"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n" + xyz, "ends early"},
+  };
+  for (const auto& [content, why] : cases) {
+    try {
+      loadMesh(tmpFile("ends.ply", content));
+      ADD_FAILURE() << content << " loaded";
+    } catch (const MeshError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Coordinates that are finite in the file but overflow once scaled, a mesh larger than any cell
+// (its area could overflow too; a mesh in millimetres read as metres), and a scale that is not a
+// positive number are refused rather than loaded as inf or NaN, or sampled into a std::bad_alloc.
+TEST(MeshLoad, CoordinatesThatOverflowAreRefused) {
+  const std::string big = "v 0 0 0\nv 1e200 0 0\nv 0 1e200 0\nf 1 2 3\n";
+  const std::string huge = "v 0 0 0\nv 1e306 0 0\nv 0 1 0\nf 1 2 3\n";
+  const std::vector<std::tuple<std::string, double, std::string>> cases = {
+      {big, 1.0, "is 1e+200 m across at scale 1, more than any cell's 10 m"},
+      {"v 0 0 0\nv 100 0 0\nv 0 100 0\nf 1 2 3\n", 1.0, "wants a scale of 0.001"},
+      {huge, 1000.0, "overflows once scaled"},
+      {kObj, std::nan(""), "is not a positive number"},
+      {kObj, -1.0, "is not a positive number"},
+  };
+  for (const auto& [content, scale, why] : cases) {
+    try {
+      loadMesh(tmpFile("big.obj", content), scale);
+      ADD_FAILURE() << why << ": loaded";
+    } catch (const MeshError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  }
 }
 
 // A closed surface passes; a hole and a flipped triangle are named with the edge's end points in

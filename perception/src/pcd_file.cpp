@@ -4,6 +4,7 @@
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/io/pcd_io.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -100,7 +101,15 @@ std::string checkHeader(const std::string& path) {
     point_size += static_cast<std::size_t>(sizes[i]) * static_cast<std::size_t>(counts[i]);
   }
   if (width < 1 || height < 1) return "holds no point (WIDTH or HEIGHT missing or zero)";
-  if (points >= 0 && points != width * height) return "POINTS disagrees with WIDTH x HEIGHT";
+  constexpr long long kMaxSide = 0xffffffffLL;  // PCL keeps WIDTH and HEIGHT as 32-bit numbers
+  if (width > kMaxSide || height > kMaxSide) return "WIDTH or HEIGHT is beyond 2^32 - 1";
+  const auto cells = static_cast<unsigned long long>(width) * static_cast<unsigned long long>(height);
+  if (points >= 0 && static_cast<unsigned long long>(points) != cells) return "POINTS disagrees with WIDTH x HEIGHT";
+  std::size_t values_per_point = 0;  // an ascii value takes a byte at least
+  for (const int c : counts) values_per_point += static_cast<std::size_t>(c);
+  unsigned long long bytes = 0, values = 0;
+  const bool too_big =
+      __builtin_mul_overflow(cells, point_size, &bytes) || __builtin_mul_overflow(cells, values_per_point, &values);
   const std::size_t header_end = static_cast<std::size_t>(std::max<std::streamoff>(0, in.tellg()));
   // PCL reads on past DATA while lines start with a header keyword, so a data line that does
   // ("COLUMNS" alone: no fields, then a read through a wild pointer) would change the header.
@@ -111,9 +120,13 @@ std::string checkHeader(const std::string& path) {
   for (const char* key :
        {"VERSION", "FIELDS", "COLUMNS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA"})
     if (first.rfind(key, 0) == 0) return "a header line after DATA ('" + first + "')";
-  if (data == "binary" && file_size < header_end + static_cast<std::size_t>(width * height) * point_size)
-    return "binary data is shorter than its header says (" + std::to_string(file_size - header_end) + " of " +
-           std::to_string(static_cast<std::size_t>(width * height) * point_size) + " bytes)";
+  const std::size_t data_size = file_size - std::min(file_size, header_end);
+  if (data == "binary" && (too_big || data_size < bytes))
+    return "binary data is shorter than its header says (" + std::to_string(data_size) + " bytes for " +
+           std::to_string(cells) + " points of " + std::to_string(point_size) + ")";
+  if (data == "ascii" && (too_big || data_size < values))
+    return "ascii data is shorter than its header says (" + std::to_string(data_size) + " bytes for " +
+           std::to_string(cells) + " points of " + std::to_string(values_per_point) + " values)";
   if (data == "binary_compressed" && file_size < header_end + 8) return "compressed data is missing";
   return "";
 }

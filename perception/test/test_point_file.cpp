@@ -181,15 +181,26 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
   put<std::uint32_t>(lzf, 24);
   lzf += "\x1f\x02\x03\x04\x05";
   write(dir.file("lzf.pcd"), lzf);
+  // Sides beyond PCL's 32 bits (their product once overflowed a signed integer), and ascii data
+  // far shorter than the points it claims (PCL would allocate them all first).
+  std::string huge = asciiPcd(1, 1, {"1 2 3"});
+  huge.replace(huge.find("WIDTH 1\nHEIGHT 1"), 16, "WIDTH 4294967296\nHEIGHT 4294967296");
+  write(dir.file("huge.pcd"), huge);
+  write(dir.file("few.pcd"), asciiPcd(1000000000, 1, {"1 2 3"}));
+  // A PLY whose header ends the file without a newline (the data once began past the buffer).
+  write(dir.file("end.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+        "property float z\nend_header");
   for (const std::string name : {"garbage.pcd", "nox.pcd", "short.pcd", "missing.pcd", "empty.pcd", "nofields.pcd",
-                                 "type.pcd", "columns.pcd", "blank.pcd", "lzf.pcd"}) {
+                                 "type.pcd", "columns.pcd", "blank.pcd", "lzf.pcd", "huge.pcd", "few.pcd", "end.ply"}) {
     const PointFile f = readPointFile(dir.file(name));
     EXPECT_EQ(f.error.status, FrameStatus::kUnreadable) << name;
     EXPECT_NE(f.error.message.find(name), std::string::npos) << f.error.message;
     EXPECT_TRUE(f.points.empty());
   }
   EXPECT_NE(readPointFile(dir.file("nox.pcd")).error.message.find("has no 'x' field"), std::string::npos);
-  EXPECT_NE(readPointFile(dir.file("short.pcd")).error.message.find("shorter than its header says (84 of 1200"),
+  EXPECT_NE(readPointFile(dir.file("short.pcd"))
+                .error.message.find("shorter than its header says (84 bytes for 100 points of 12)"),
             std::string::npos)
       << readPointFile(dir.file("short.pcd")).error.message;
   EXPECT_NE(readPointFile(dir.file("nofields.pcd")).error.message.find("no FIELDS"), std::string::npos);
@@ -198,6 +209,10 @@ TEST(PointFile, CorruptPcdGivesAClearErrorNotACrash) {
   EXPECT_NE(readPointFile(dir.file("columns.pcd")).error.message.find("a header line after DATA ('COLUMNS')"),
             std::string::npos);
   EXPECT_NE(readPointFile(dir.file("blank.pcd")).error.message.find("blank line with spaces"), std::string::npos);
+  EXPECT_NE(readPointFile(dir.file("huge.pcd")).error.message.find("beyond 2^32 - 1"), std::string::npos);
+  EXPECT_NE(readPointFile(dir.file("few.pcd")).error.message.find("ascii data is shorter"), std::string::npos);
+  EXPECT_NE(readPointFile(dir.file("end.ply")).error.message.find("expected a number"), std::string::npos)
+      << readPointFile(dir.file("end.ply")).error.message;
   EXPECT_NE(readPointFile(dir.file("a.xyz")).error.message.find("not a .pcd or .ply"), std::string::npos);
 }
 

@@ -23,6 +23,9 @@ class MeshError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The largest extent, in metres after the scale, that loadMesh accepts.
+constexpr double kMaxMeshSize = 10.0;
+
 /// Loads .stl (ascii or binary), .obj or .ply (ascii or binary_little_endian) by extension.
 /// Coordinates are multiplied by `scale` (e.g. 0.001 for a mesh in millimetres).
 /// Throws MeshError naming the file for a missing, empty, malformed or triangle-free file.

@@ -45,7 +45,7 @@ class YamlReader {
   template <class T>
   void read(const std::string& key, T& value, T lo, T hi) const {
     read(key, value);
-    if (value < lo || value > hi)
+    if (!(value >= lo && value <= hi))  // NaN (".nan") is out of every range
       fail(key, "value " + show(value) + " is out of range [" + show(lo) + ", " + show(hi) + "]");
   }
   /// Reads a key that must be present.
