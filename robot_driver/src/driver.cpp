@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 namespace depowder::robot {
 namespace {
@@ -111,11 +112,12 @@ void Driver::estop(bool stop, const std::string& why) {
     const bool first = !estop_latched_.exchange(true);
     if (first) ++estop_events_;
     // Halt at once from this thread: the watch connection never waits behind a slvMove.
-    if (session_.isOpen()) session_.halt();
+    const SessionResult halted = session_.isOpen() ? session_.halt() : SessionResult{};
     std::lock_guard<PiMutex> lock(mutex_);
     if (first) ++status_.stats.estops;
     status_.mode = DriverMode::EStopped;
     status_.reason = "ESTOP: " + why;
+    if (!halted.ok) status_.reason += " (Robot_Halt failed: " + halted.error + "; the loop switches the motor off)";
     incoming_.reset();
     have_plan_ = false;
   } else {
@@ -165,6 +167,18 @@ bool Driver::enableFromCurrentPosition() {
     setMode(DriverMode::EStopped, "ESTOP active; waiting for a reset");
     return true;
   }
+  // An arm outside the configured limits (jogged there, or limits narrowed in the cell file)
+  // is not enabled: the command limiter would pull it in on its own.
+  for (int i = 0; i < 6; ++i)
+    if (!(q[i] >= cfg_.arm.q_min[i] && q[i] <= cfg_.arm.q_max[i])) {
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "J%d at %.2f deg is outside the configured limits [%.2f, %.2f] deg; move it inside (teach "
+                    "pendant) or widen robot.q_min / q_max",
+                    i + 1, q[i] * 180 / M_PI, cfg_.arm.q_min[i] * 180 / M_PI, cfg_.arm.q_max[i] * 180 / M_PI);
+      setMode(DriverMode::Fault, why);
+      return false;
+    }
   r = session_.enable();
   if (!r.ok) {
     setMode(r.connectionLost() ? DriverMode::Disconnected : DriverMode::Fault, r.error);

@@ -239,10 +239,10 @@ void Rc8Session::abort() {
   {
     std::lock_guard<PiMutex> lock(watch_mutex_);
     watch_.close();
+    watch_controller_ = watch_robot_ = 0;
   }
   act_.setReplyTimeout(cfg_.client.reply_timeout_s);
   controller_ = robot_ = vacuum_ = air_ = 0;
-  watch_controller_ = watch_robot_ = 0;
   open_ = false;
   slave_ = false;
   motor_ = false;

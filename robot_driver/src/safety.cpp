@@ -24,13 +24,16 @@ void CommandLimiter::reset(const Joints& q) {
 CommandLimiter::Result CommandLimiter::apply(const Joints& target) {
   Result r;
   for (int i = 0; i < 6; ++i) {
+    // An arm found outside the limits (the driver refuses to enable there) may move back in,
+    // never further out, and never in one step: the range is widened to hold where it is.
+    const double lo = std::min(arm_.q_min[i], q_[i]), hi = std::max(arm_.q_max[i], q_[i]);
     double t = target[i];
     if (!std::isfinite(t)) {
       t = q_[i];
       r.clipped_position = true;
     }
-    if (t < arm_.q_min[i] || t > arm_.q_max[i]) {
-      t = std::clamp(t, arm_.q_min[i], arm_.q_max[i]);
+    if (t < lo || t > hi) {
+      t = std::clamp(t, lo, hi);
       r.clipped_position = true;
     }
     double v = (t - q_[i]) / dt_;
@@ -45,7 +48,7 @@ CommandLimiter::Result CommandLimiter::apply(const Joints& target) {
       r.clipped_acceleration = true;
     }
     // The limited step must itself stay within the joint limits.
-    double q = std::clamp(q_[i] + v * dt_, arm_.q_min[i], arm_.q_max[i]);
+    double q = std::clamp(q_[i] + v * dt_, lo, hi);
     v_[i] = (q - q_[i]) / dt_;
     q_[i] = q;
     r.q[i] = q;

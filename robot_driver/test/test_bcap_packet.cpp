@@ -3,6 +3,9 @@
 // replies, and rejection of malformed input.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <cstdlib>
+#include <new>
 #include <random>
 #include <string>
 #include <vector>
@@ -11,6 +14,17 @@
 #include "depowder/robot/bcap/packet.hpp"
 
 using namespace depowder::robot::bcap;
+
+// Bytes allocated while `g_counting` is set (this binary's every operator new passes here).
+static std::atomic<bool> g_counting{false};
+static std::atomic<std::size_t> g_allocated{0};
+void* operator new(std::size_t n) {
+  if (g_counting) g_allocated += n;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -241,4 +255,33 @@ TEST(BcapPacket, EmptyArraysRoundTrip) {
   const DecodeResult d = decode(encode(p));
   ASSERT_EQ(d.status, DecodeStatus::Ok) << d.error;
   EXPECT_TRUE(d.packet == p);
+}
+
+// A packet of the largest size whose VARIANT arrays, nested as deep as allowed and deeper, each
+// claim as many items as the rest of the packet could hold. Decoding once sized each array by
+// its claim before reading an item: about 17 times the packet's length a level, 150 MB for this
+// 1 MiB packet, before the depth check refused it. Arrays now grow as their items are read.
+TEST(BcapPacket, NestedArraysAllocateNoMoreThanTheirBytes) {
+  std::vector<std::uint8_t> b = {0x01, 0, 0, 0, 0, 1, 0, 0, 0, 0x40, 0, 0, 0, 1, 0};  // serial 1, id 64, 1 arg
+  const std::size_t arg_at = b.size();
+  b.resize(kMaxPacketSize - 1, 0);
+  b.push_back(0x04);
+  auto put32 = [&](std::size_t at, std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+  };
+  put32(1, static_cast<std::uint32_t>(b.size()));
+  put32(arg_at, static_cast<std::uint32_t>(b.size() - 1 - arg_at - 4));
+  for (std::size_t at = arg_at + 4, level = 0; level < 12; ++level, at += 6) {
+    b[at] = VT_VARIANT;
+    b[at + 1] = VT_ARRAY >> 8;
+    put32(at + 2, static_cast<std::uint32_t>((b.size() - at - 6) / 6));
+  }
+  g_allocated = 0;
+  g_counting = true;
+  const DecodeResult d = decode(b);
+  g_counting = false;
+  EXPECT_EQ(d.status, DecodeStatus::Invalid);
+  EXPECT_NE(d.error.find("nesting deeper"), std::string::npos) << d.error;
+  std::printf("  decoding a 1 MiB packet of nested arrays allocated %zu bytes\n", g_allocated.load());
+  EXPECT_LT(g_allocated.load(), b.size());
 }

@@ -93,3 +93,38 @@ TEST(CheckSafety, AgeLimitsComeTheStopLeadEarly) {
   in.was_inside = false;
   EXPECT_EQ(checkSafety(c, in).stop, StopReason::None);
 }
+
+// The last-line limiter: a target beyond the joint limits is clipped to them and reached under
+// the speed and acceleration limits; an arm that is outside the limits already (jogged there, or
+// limits narrowed in the cell file) is held where it is, and may move back in, never further out
+// and never in one cycle (it once jumped to the limit in a single 8 ms step).
+TEST(CommandLimiter, OutsideTheLimitsTheArmIsHeldNotPulledIn) {
+  const ArmConfig arm;
+  const double dt = 0.008, step = arm.qd_max[0] * 1.02 * dt;  // the most one cycle may move J1
+  CommandLimiter lim(arm, dt);
+  Joints q = arm.q_home;
+  q[0] = arm.q_max[0] + 0.1;
+  lim.reset(q);
+  CommandLimiter::Result r = lim.apply(q);  // hold
+  EXPECT_EQ(r.q[0], q[0]);
+  Joints further = q;
+  further[0] += 0.05;
+  r = lim.apply(further);
+  EXPECT_EQ(r.q[0], q[0]);
+  EXPECT_TRUE(r.clipped_position);
+  Joints in = q;
+  in[0] = arm.q_max[0] - 0.2;
+  double last = q[0];
+  for (int k = 0; k < 2000; ++k) {
+    r = lim.apply(in);
+    ASSERT_LE(std::abs(r.q[0] - last), step + 1e-12) << "cycle " << k;
+    ASSERT_LE(r.q[0], q[0]) << "cycle " << k;
+    last = r.q[0];
+  }
+  EXPECT_NEAR(last, in[0], 1e-9);
+  // Once inside, the limits hold again.
+  Joints out = in;
+  out[0] = arm.q_max[0] + 1.0;
+  for (int k = 0; k < 2000; ++k) r = lim.apply(out);
+  EXPECT_NEAR(r.q[0], arm.q_max[0], 1e-12);
+}

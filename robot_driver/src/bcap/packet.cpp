@@ -1,5 +1,6 @@
 #include "depowder/robot/bcap/packet.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -197,7 +198,7 @@ bool readVariant(Reader& r, Variant& v, int depth) {
       return true;
     case VT_BSTR: {
       if (count > left / 4) return r.fail("BSTR count beyond the packet");
-      v.strings.reserve(count);
+      v.strings.reserve(std::min<std::uint32_t>(count, 64));  // each grows as it is read
       for (std::uint32_t k = 0; k < count; ++k) {
         if (!r.need(4)) return false;
         const std::uint32_t bytes = r.u32();
@@ -212,9 +213,13 @@ bool readVariant(Reader& r, Variant& v, int depth) {
     case VT_VARIANT: {
       if (!v.array) return r.fail("scalar VT_VARIANT");
       if (count > left / 6) return r.fail("VARIANT array count beyond the packet");
-      v.items.resize(count);
-      for (auto& item : v.items) {
+      // Grown as items are read, not sized by the count: nested arrays that each claimed the
+      // rest of the packet would otherwise hold ~17 times its length per level before failing.
+      v.items.reserve(std::min<std::uint32_t>(count, 64));
+      for (std::uint32_t k = 0; k < count; ++k) {
+        Variant item;
         if (!readVariant(r, item, depth + 1)) return false;
+        v.items.push_back(std::move(item));
       }
       return true;
     }

@@ -369,6 +369,8 @@ Packet BcapEmulator::handle(const Packet& req, int connection, const PartialRepl
         const std::string item = option->substr(at, end - at);
         if (item.size() > 4 && (item.compare(0, 4, "WDT=") == 0 || item.compare(0, 4, "wdt=") == 0)) {
           const double ms = std::atof(item.c_str() + 4);
+          if (!(ms >= 0 && ms <= 60000))  // 0 asks for none
+            return error(req, hr::E_INVALIDARG, "the watchdog period " + item + " is not 0 to 60000 ms");
           if (ms > 0) wdt_s_[connection] = ms / 1000;
         }
         at = end + 1;

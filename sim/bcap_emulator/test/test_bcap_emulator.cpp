@@ -283,6 +283,20 @@ TEST(BcapEmulator, StillExecutingRepliesOnlyWithAWatchdogOption) {
   }
 }
 
+// A watchdog period the emulator cannot keep (inf, NaN, 1e300 ms: its nanoseconds once overflowed
+// an integer) is refused, and the connection stays usable.
+TEST(BcapEmulator, AnImpossibleWatchdogPeriodIsRefused) {
+  BcapEmulator emu(testConfig());
+  ASSERT_TRUE(emu.start());
+  Client c(clientConfig(emu.port()));
+  ASSERT_TRUE(c.connect().ok());
+  for (const char* option : {"WDT=1e300", ",WDT=inf", "WDT=nan", "WDT=-5"}) {
+    const auto r = c.serviceStart(option);
+    EXPECT_EQ(r.hresult, hr::E_INVALIDARG) << option << ": " << r.error;
+  }
+  EXPECT_TRUE(c.serviceStart("WDT=400").ok());
+}
+
 TEST(BcapEmulator, TimeoutWhenNobodyAnswers) {
   BcapEmulator emu(testConfig());
   RecordingProxy proxy(emu, /*drop=*/100);

@@ -443,3 +443,22 @@ TEST(DriverEmulator, ControllerErrorIsClearedAndResumed) {
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
   EXPECT_LE(rig.maxStepRatio(), 1.0);
 }
+
+// An arm found outside the configured joint limits is not enabled: the driver reports which
+// joint and where, moves nothing, and enables once the arm is back inside.
+TEST(DriverEmulator, AnArmOutsideTheLimitsIsNotEnabled) {
+  const Joints home = ArmConfig().q_home;
+  Rig rig([&](DriverConfig& c) { c.arm.q_max[0] = home[0] - 0.1; });
+  ASSERT_TRUE(rig.waitMode(DriverMode::Fault, 3.0)) << rig.driver().status().reason;
+  EXPECT_NE(rig.driver().status().reason.find("J1 at"), std::string::npos) << rig.driver().status().reason;
+  EXPECT_NE(rig.driver().status().reason.find("outside the configured limits"), std::string::npos);
+  std::this_thread::sleep_for(300ms);  // three retries
+  EXPECT_EQ(rig.driver().status().mode, DriverMode::Fault);
+  EXPECT_EQ(rig.emu().joints().q, home);
+  Joints inside = home;
+  inside[0] = home[0] - 0.2;
+  ASSERT_TRUE(rig.emu().setJoints(inside));
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0)) << rig.driver().status().reason;
+  EXPECT_EQ(rig.emu().joints().q, inside);
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+}

@@ -5,6 +5,7 @@
 // a slvMove exchange.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <mutex>
 #include <string>
@@ -82,7 +83,7 @@ class Rc8Session {
   PiMutex watch_mutex_;
   std::uint32_t controller_ = 0, robot_ = 0, vacuum_ = 0, air_ = 0;
   std::uint32_t watch_controller_ = 0, watch_robot_ = 0;
-  bool open_ = false;
+  std::atomic<bool> open_{false};  ///< read by estop() on the LCM thread
   bool slave_ = false;
   bool motor_ = false;
   bool arm_taken_ = false;
