@@ -48,6 +48,7 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   icp.read("scan_weight", c.icp.scan_weight, 0.0, 1.0);
   icp.read("max_step_rotation", c.icp.max_step_rotation, 1e-4, 3.2);
   icp.read("min_correspondences", c.icp.min_correspondences, 6, 1000000);
+  icp.read("reassociate", c.icp.reassociate, 0.0, 0.05);
   icp.finish();
   const node::YamlReader visibility = r.child("visibility");
   visibility.read("powder_radius", c.visibility.powder_radius, 0.0, 0.2);
@@ -103,6 +104,7 @@ TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions&
     if (saved != resume.end()) last_poses_[p.name] = saved->second;
     const Pose& T_init = saved != resume.end() ? saved->second.T_cell_part : p.T_cell_part_init;
     parts.emplace_back(p.name, loadMesh(p.mesh, p.mesh_scale), T_init, p.xi, options_.tracker);
+    if (saved != resume.end()) parts.back().resume();  // only parts past Phase 1 are saved
   }
   trackers_ = std::make_unique<MultiTracker>(std::move(parts), options_.threads);
   if (options_.cull_with_cameras)

@@ -22,6 +22,7 @@ using namespace depowder;
 using namespace depowder::tracker;
 
 const std::string kParts = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/";
+constexpr double kDeepPowder = 0.065;  // m: powder this high leaves both parts under eta1 (cube 6 cm, owl 8.6)
 
 std::string cameras() {
   return "cameras:\n"
@@ -90,6 +91,7 @@ TEST(TrackerOptions, DefaultCellHasTheLibraryDefaults) {
   EXPECT_EQ(o.tracker.filter.reset_m, d.filter.reset_m);
   EXPECT_EQ(o.tracker.icp.max_step_rotation, d.icp.max_step_rotation);
   EXPECT_EQ(o.tracker.icp.min_correspondences, d.icp.min_correspondences);
+  EXPECT_EQ(o.tracker.icp.reassociate, d.icp.reassociate);
   EXPECT_EQ(o.tracker.status.tracking_min_inlier_ratio, d.status.tracking_min_inlier_ratio);
   EXPECT_EQ(o.tracker.status.tracking_max_rms, d.status.tracking_max_rms);
   EXPECT_EQ(o.tracker.status.lost_min_inlier_ratio, d.status.lost_min_inlier_ratio);
@@ -120,6 +122,10 @@ TEST(TrackerOptions, BadKeysAndValuesAreNamed) {
   EXPECT_NE(error("{visibility: {powder_radius: 0.5}}").find("powder_radius"), std::string::npos);
   EXPECT_NE(error("{icp: {motion_prior: 0.3}}").find("motion_prior"), std::string::npos);  // gone: the filter
   EXPECT_EQ(error("{method: vanilla, icp: {tangent_weight: 0.5}, filter: {data_inflation: 5}}"), "no error");
+  EXPECT_NE(error("{template_resolution: .nan}").find("template_resolution"), std::string::npos);
+  // Every field of TrackerConfig has its key (icp.reassociate once had none, so it was refused).
+  const node::CellConfig cell = node::loadCellFromString(s.yaml("{icp: {reassociate: 0.002}}"));
+  EXPECT_EQ(readTrackerOptions(cell).tracker.icp.reassociate, 0.002);
 }
 
 TEST(TrackerNode, OnePosePerPartWithTheFrameUtime) {
@@ -197,6 +203,17 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
               1e-12);
   for (const part_pose_t& m : second.onPoints(node::encodeCloud(s.frames(1)[0], 8)))
     EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
+  // Even where eta is back under eta1 (the powder deep round the parts, as after a restart early
+  // in Phase 2): a new node waits there, a resumed one tracks (it once waited with the pose frozen).
+  const Cloud deep = s.frames(1, kDeepPowder)[0];
+  TrackerNode fresh(cell, readTrackerOptions(cell));
+  for (const part_pose_t& m : fresh.onPoints(node::encodeCloud(deep, 9)))
+    ASSERT_EQ(m.status, +part_pose_t::WAITING) << m.part << ": " << m.status_reason;
+  TrackerNode third(cell, readTrackerOptions(cell), saved);
+  for (const part_pose_t& m : third.onPoints(node::encodeCloud(deep, 9))) {
+    EXPECT_NE(m.status, +part_pose_t::WAITING) << m.part << ": " << m.status_reason;
+    EXPECT_EQ(std::string(m.status_reason).find("phase 1"), std::string::npos) << m.status_reason;
+  }
 
   // A broken file names the file and the line.
   for (const char* bad : {"cube 7 0 0 0 1 0 0\n", "cube 7 0 0 0 2 0 0 0\n", "cube 7 nan 0 0 1 0 0 0\n"}) {

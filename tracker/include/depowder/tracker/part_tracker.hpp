@@ -83,6 +83,10 @@ class PartTracker {
   /// the true motion, which bounds what a motion model could add to the tracker.
   void predictMotion(const Pose& delta);
 
+  /// The part had left Phase 1 before the tracker restarted (its state file): it is tracked from
+  /// the next frame on, whatever eta then is; that frame derives its template at the pose.
+  void resume() { started_ = true; }
+
   const std::string& name() const { return name_; }
   Method method() const { return config_.method; }
   double xi() const { return xi_; }
