@@ -254,6 +254,31 @@ void CellPlanner::updateWorld() {
   world_->setPowderTop(std::min(powder_top, world_->box().size.z()));
 }
 
+void CellPlanner::rememberWorld() {
+  checked_world_.clear();
+  for (std::size_t i = 0; i < world_->numParts(); ++i)
+    checked_world_.emplace_back(world_->partPose(i), world_->partState(i));
+}
+
+std::string CellPlanner::othersBlockTheCycle() {
+  bool changed = checked_world_.size() != world_->numParts();
+  for (std::size_t i = 0; i < world_->numParts() && !changed; ++i) {
+    if (static_cast<int>(i) == active_part_) continue;
+    const auto& [T, state] = checked_world_[i];
+    const Pose& now = world_->partPose(i);
+    changed = state != world_->partState(i) || translationDistance(now, T) > config_.replan.translation ||
+              rotationAngle(now.linear(), T.linear()) > config_.replan.rotation_deg * kPi / 180;
+  }
+  if (!changed) return "";
+  rememberWorld();
+  const bool running = robot_ && robot_->plan_id == active_id_;
+  const std::size_t from = running ? static_cast<std::size_t>(std::max(0, robot_->waypoint_index)) : 0;
+  for (std::size_t k = from; k < active_waypoints_.size(); ++k)
+    if (const Contact c = world_->checkArm(active_waypoints_[k].q, CheckOptions(false, true, active_part_)))
+      return "waypoint " + std::to_string(k) + ": " + c.what;
+  return "";
+}
+
 bool CellPlanner::eligible(int i) const {
   const PartState& s = states_[i];
   const PartReport& r = reports_[i];
@@ -414,7 +439,10 @@ std::optional<Plan> CellPlanner::step() {
     const bool same = continuing && phase == active_phase_;
     const bool moved = translationDistance(T, active_pose_) > config_.replan.translation ||
                        rotationAngle(T.linear(), active_pose_.linear()) > config_.replan.rotation_deg * kPi / 180;
-    if (same && !moved) return refresh(utime);
+    // The driver checks no collision: another part that moved into the rest of the cycle
+    // (toppled, pushed) has it planned anew, with the way out of it (escape) if need be.
+    const std::string blocked = same && !moved ? othersBlockTheCycle() : "";
+    if (same && !moved && blocked.empty()) return refresh(utime);
 
     // 5. Build the cycle. A pose-triggered regeneration keeps the loop's layer.
     CycleRequest request;
@@ -441,6 +469,8 @@ std::optional<Plan> CellPlanner::step() {
     }
     Plan plan = planCycle(*world_, request, config_);
     plan.utime = utime;
+    if (!blocked.empty())
+      plan.reason = "another part in the cycle's way (" + blocked + "), planned anew: " + plan.reason;
     if (!plan.hasWaypoints()) {
       s.failed_utime = newest_utime_;
       report.note = plan.reason;
@@ -457,6 +487,7 @@ std::optional<Plan> CellPlanner::step() {
     active_powder_ = request.powder_height;
     active_is_cycle_ = true;
     home_reason_.clear();
+    rememberWorld();
     return emit(std::move(plan));
   }
   return hold(first_problem, newest_utime_);

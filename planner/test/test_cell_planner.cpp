@@ -379,6 +379,43 @@ TEST_F(CellTest, RunningPlanIsRefreshedWithNewerFrames) {
   EXPECT_EQ(planner->parts()[0].cycles, 2);
 }
 
+TEST_F(CellTest, AnotherPartMovedIntoTheCycleHasItPlannedAnew) {
+  // The driver checks no collision, and a cycle that nothing about its own part changed is
+  // re-sent as it was: the other part, toppled against a waypoint the arm has still to reach,
+  // must make it planned anew (it was once re-sent into that part until the cycle ended).
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints() && p1->part == "left");
+  ASSERT_TRUE(check(*p1, T_left, T_right).clean());
+  robotAt(*p1, 10);
+  std::vector<std::size_t> loop;  // the vacuum loop's waypoints
+  for (std::size_t i = 10; i < p1->waypoints.size(); ++i)
+    if (p1->waypoints[i].tool == Tool::kVacuum) loop.push_back(i);
+  ASSERT_GT(loop.size(), 10u);
+  const std::size_t k = loop[loop.size() / 2];
+  const Point tip = p1->waypoints[k].T_cell_nozzle.translation();
+  Eigen::Vector3d out = tip - T_left.translation();
+  out.z() = 0;
+  out.normalize();
+  const Point at = tip + 0.035 * out;  // a face 5 mm from that waypoint's tip
+  const Pose toppled = makePoseRpy({at.x(), at.y(), 0.03}, 0, 0, std::atan2(out.y(), out.x()));
+  ASSERT_FALSE(check(*p1, T_left, toppled).clean());
+  utime += 600000;  // a refresh is due
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  frame("right", toppled, Phase::kVacuumTracked, 0.04);
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2);
+  EXPECT_EQ(p2->reason.find("refresh"), std::string::npos) << p2->reason;
+  const CheckReport again = check(*p2, T_left, toppled);
+  EXPECT_TRUE(again.clean()) << p2->reason << "; " << again.first;
+  if (p2->hasWaypoints()) EXPECT_NE(p2->reason.find("another part in the cycle's way (waypoint"), std::string::npos);
+  std::printf("  after the move: %zu waypoints, %s\n", p2->waypoints.size(), p2->reason.c_str());
+  // Small moves of another part (under replan.translation) leave the cycle alone.
+  auto p3 = planner->step();
+  EXPECT_FALSE(p3 && p3->hasWaypoints() && p3->reason.find("another part") != std::string::npos);
+}
+
 TEST_F(CellTest, PhaseOneUsesTheInitialPose) {
   // The tracker's pose is off by 3 cm, but in phase 1 the printed pose counts.
   frame("left", makePoseRpy({-0.05, 0.0, 0.03}, 0, 0, 0.1), Phase::kVacuumBuried, 0.08);

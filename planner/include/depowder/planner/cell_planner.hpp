@@ -130,6 +130,13 @@ class CellPlanner {
   /// Takes `utime`, arriving at `arrival`, as the newest input's if it is.
   void takeNewest(std::int64_t utime, std::int64_t arrival);
   void updateWorld();
+  /// Remembers the parts of the world as the active cycle was checked against them.
+  void rememberWorld();
+  /// Another part moved as far as would replan the active one (replan.translation or
+  /// rotation_deg), or was lost or found, since the active cycle was checked: what is left of
+  /// it is checked again, against every part but the active one. Returns the first contact
+  /// ("waypoint N: what"), or "" if it is clear or nothing changed.
+  std::string othersBlockTheCycle();
 
   PlannerConfig config_;
   std::shared_ptr<const robot::ArmConfig> arm_;
@@ -156,6 +163,7 @@ class CellPlanner {
   Pose active_pose_ = Pose::Identity();
   double active_powder_ = 0;
   bool active_is_cycle_ = false;
+  std::vector<std::pair<Pose, planner::PartState>> checked_world_;  ///< see rememberWorld
   std::string last_hold_;
   std::string home_reason_;  ///< why the last home move was planned ("" if none since the last cycle)
   bool finished_ = false;
