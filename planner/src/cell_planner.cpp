@@ -279,6 +279,14 @@ std::string CellPlanner::othersBlockTheCycle() {
   return "";
 }
 
+bool CellPlanner::atCycleStart() const {
+  if (!robot_ || active_waypoints_.empty()) return false;
+  const Waypoint now = atJoints(*arm_, robot_->q);
+  const Waypoint& first = active_waypoints_.front();
+  return translationDistance(now.T_cell_nozzle, first.T_cell_nozzle) <= config_.transition.direct_move &&
+         edgeFree(*world_, now, first, config_);
+}
+
 bool CellPlanner::eligible(int i) const {
   const PartState& s = states_[i];
   const PartReport& r = reports_[i];
@@ -442,7 +450,11 @@ std::optional<Plan> CellPlanner::step() {
     // The driver checks no collision: another part that moved into the rest of the cycle
     // (toppled, pushed) has it planned anew, with the way out of it (escape) if need be.
     const std::string blocked = same && !moved ? othersBlockTheCycle() : "";
-    if (same && !moved && blocked.empty()) return refresh(utime);
+    // The driver dropped the cycle (an ESTOP reset, a restart): re-sent whole, its first waypoint
+    // would be joined by a straight line from wherever the arm stopped, checked by nobody. Unless
+    // the arm is still where the cycle begins, it is planned anew from there.
+    const bool dropped = same && !moved && robot_ && robot_->plan_id != active_id_ && !atCycleStart();
+    if (same && !moved && blocked.empty() && !dropped) return refresh(utime);
 
     // 5. Build the cycle. A pose-triggered regeneration keeps the loop's layer.
     CycleRequest request;
@@ -471,6 +483,7 @@ std::optional<Plan> CellPlanner::step() {
     plan.utime = utime;
     if (!blocked.empty())
       plan.reason = "another part in the cycle's way (" + blocked + "), planned anew: " + plan.reason;
+    if (dropped) plan.reason = "the driver dropped the cycle away from its start, planned anew: " + plan.reason;
     if (!plan.hasWaypoints()) {
       s.failed_utime = newest_utime_;
       report.note = plan.reason;

@@ -214,13 +214,17 @@ namespace {
 
 /// The driver runs waypoints as straight Cartesian steps with IK, not along the joint-space
 /// line OMPL validated: checks every step of the path that way, inserting joint-space
-/// midpoints (which lie on the validated line) where the Cartesian step fails.
-bool verifyCartesian(const CollisionWorld& world, std::vector<robot::Joints>& path, const PlannerConfig& config,
-                     std::string* why) {
+/// midpoints (which lie on the validated line) where the Cartesian step fails. The steps
+/// between path[middle_from] and path[middle_to] (OMPL's) are checked as OMPL checked them,
+/// the powder an obstacle and LOST parts with their margin; the vertical lift and descent
+/// leave the powder, with LOST parts as in verticalMove.
+bool verifyCartesian(const CollisionWorld& world, std::vector<robot::Joints>& path, std::size_t middle_from,
+                     std::size_t middle_to, const PlannerConfig& config, std::string* why) {
   const robot::ArmConfig& arm = world.arm();
-  const CheckOptions options(false, false);  // lifts leave the powder; LOST parts as in verticalMove
   std::vector<robot::Joints> out{path.front()};
   for (std::size_t k = 1; k < path.size(); ++k) {
+    const bool middle = k - 1 >= middle_from && k <= middle_to;
+    const CheckOptions options(middle, middle);
     std::vector<robot::Joints> todo{path[k]};
     int splits = 0;
     while (!todo.empty()) {
@@ -277,8 +281,9 @@ TransitionResult planTransition(const CollisionWorld& world, const robot::Joints
     std::vector<robot::Joints> path = lift;
     path.insert(path.end(), r.path.begin() + 1, r.path.end());
     path.insert(path.end(), descent.begin() + 1, descent.end());
+    const std::size_t middle_from = lift.size() - 1, middle_to = middle_from + r.path.size() - 1;
     r.path = std::move(path);
-    if (!verifyCartesian(world, r.path, config, &why)) {
+    if (!verifyCartesian(world, r.path, middle_from, middle_to, config, &why)) {
       r.status = TransitionStatus::kBlocked;
       r.reason = why;
       r.path.clear();

@@ -78,8 +78,17 @@ bool edgeFree(const CollisionWorld& world, const Waypoint& a, const Waypoint& b,
       if (!ik) return false;
       next = *ik;
     }
-    if (maxJointStep(q, next) > config.collision.max_joint_step) return false;
+    const double turn = maxJointStep(q, next);
+    if (turn > config.collision.max_joint_step) return false;
     if (k < n && world.checkArm(next, options)) return false;
+    // The driver moves the joints linearly between these IK points: where they turn more than
+    // check_resolution (near a singularity), the states in between are checked as well.
+    const int between = static_cast<int>(std::ceil(turn / config.transition.check_resolution));
+    for (int j = 1; j < between; ++j) {
+      robot::Joints mid;
+      for (int i = 0; i < 6; ++i) mid[i] = q[i] + (next[i] - q[i]) * j / between;
+      if (world.checkArm(mid, options)) return false;
+    }
     q = next;
   }
   return true;

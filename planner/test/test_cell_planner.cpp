@@ -416,6 +416,41 @@ TEST_F(CellTest, AnotherPartMovedIntoTheCycleHasItPlannedAnew) {
   EXPECT_FALSE(p3 && p3->hasWaypoints() && p3->reason.find("another part") != std::string::npos);
 }
 
+TEST_F(CellTest, ACycleTheDriverDroppedIsPlannedAnewFromWhereTheArmIs) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints());
+  // Refused at its start (it came before the driver heard the planner's heartbeat): the arm is
+  // where the cycle begins, and the cycle is re-sent whole.
+  RobotInput r;
+  r.utime = utime;
+  r.plan_id = -1;
+  r.idle = true;
+  r.q = p1->waypoints.front().q;
+  ASSERT_TRUE(planner->onRobot(r).ok());
+  utime += 600000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2 && p2->hasWaypoints());
+  EXPECT_EQ(p2->waypoints.size(), p1->waypoints.size());
+  EXPECT_NE(p2->reason.find("refresh: "), std::string::npos) << p2->reason;
+  // Dropped halfway (an ESTOP reset): the driver would join the first waypoint by a straight
+  // line from there. The cycle is planned anew, from where the arm is.
+  robotAt(*p2, 10);
+  const std::size_t half = p2->waypoints.size() / 2;
+  r.utime = utime;
+  r.q = p2->waypoints[half].q;
+  ASSERT_TRUE(planner->onRobot(r).ok());
+  utime += 600000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p3 = planner->step();
+  ASSERT_TRUE(p3 && p3->hasWaypoints());
+  EXPECT_NE(p3->reason.find("the driver dropped the cycle away from its start"), std::string::npos) << p3->reason;
+  const Pose arm_at = robot::forwardNozzle(*arm, r.q);
+  EXPECT_LE(translationDistance(p3->waypoints.front().T_cell_nozzle, arm_at), config.transition.direct_move + 1e-9);
+  EXPECT_TRUE(check(*p3, T_left, T_right).clean());
+}
+
 TEST_F(CellTest, PhaseOneUsesTheInitialPose) {
   // The tracker's pose is off by 3 cm, but in phase 1 the printed pose counts.
   frame("left", makePoseRpy({-0.05, 0.0, 0.03}, 0, 0, 0.1), Phase::kVacuumBuried, 0.08);

@@ -137,6 +137,9 @@ class CellPlanner {
   /// it is checked again, against every part but the active one. Returns the first contact
   /// ("waypoint N: what"), or "" if it is clear or nothing changed.
   std::string othersBlockTheCycle();
+  /// The arm is within transition.direct_move of the active cycle's first waypoint, and the
+  /// straight way there is clear.
+  bool atCycleStart() const;
 
   PlannerConfig config_;
   std::shared_ptr<const robot::ArmConfig> arm_;

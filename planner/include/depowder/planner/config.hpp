@@ -41,7 +41,6 @@ struct BlastConfig {
   double step = 0.01;      ///< m between waypoints along a line
   double overhang = 0.01;  ///< m the raster reaches beyond the footprint
   double speed = 0.05;     ///< m/s
-  int passes = 1;          ///< raster passes after which the part counts as done
 };
 
 /// Collision checking (FCL) of the nozzle and arm links against parts, box and powder.
