@@ -187,16 +187,19 @@ bool Driver::enableFromCurrentPosition() {
   }
   session_.setTool(Tool::kOff, true);
   estop_handled_ = false;
-  // Resume the current plan (if still fresh) from its next waypoint, from where the arm is.
+  // Resume the current plan (if still fresh) from its next waypoint, from where the arm is. A
+  // plan taken while the controller was away was prepared from the last command, not from where
+  // the arm is now (it may have been moved meanwhile): it is prepared again, from its start.
   Plan resume;
   bool have = false;
   int from = 0;
   {
     std::lock_guard<PiMutex> lock(mutex_);
-    if (have_plan_ && !incoming_) {
+    if (have_plan_) {
       resume = current_plan_;
       have = true;
-      from = std::max(0, status_.waypoint_index);
+      from = incoming_ ? 0 : std::max(0, status_.waypoint_index);
+      incoming_.reset();
     }
   }
   if (have) {

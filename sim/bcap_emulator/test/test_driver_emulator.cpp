@@ -462,3 +462,36 @@ TEST(DriverEmulator, AnArmOutsideTheLimitsIsNotEnabled) {
   EXPECT_EQ(rig.emu().joints().q, inside);
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
 }
+
+// A plan taken while the controller is away is prepared from the last command; if the arm was
+// moved meanwhile (a jog, a simulator reset), the driver prepares it again from where the arm is
+// on reconnecting: the nozzle goes straight to the first waypoint (it once went by way of the
+// old position's joint-space path).
+TEST(DriverEmulator, APlanTakenWhileAwayStartsFromWhereTheArmIs) {
+  Rig rig([](DriverConfig& c) { c.reconnect_period_s = 1.5; });
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  rig.emu().dropConnections();
+  ASSERT_TRUE(rig.waitMode(DriverMode::Disconnected, 1.0)) << rig.driver().status().reason;
+  const Eigen::Vector3d first(0.0, 0.0, 0.25), last(0.1, 0.0, 0.25), moved(0.0, 0.12, 0.2);
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {first, last}, 0.1)).accepted);
+  const auto q = inverseNozzle(rig.cfg().arm, down(moved.x(), moved.y(), moved.z()), rig.emu().joints().q);
+  ASSERT_TRUE(q.has_value());
+  ASSERT_TRUE(rig.emu().setJoints(*q));
+  ASSERT_TRUE(rig.waitFor([&] { return rig.driver().status().stats.reconnects == 1; }, 3.0));
+  std::vector<Eigen::Vector3d> path;
+  ASSERT_TRUE(rig.waitFor(
+      [&] {
+        path.push_back(emuNozzle(rig));
+        return (path.back() - first).norm() < 1e-6;
+      },
+      10.0))
+      << rig.driver().status().reason;
+  // Each point of the way lies on the segment from where the arm was put to the first waypoint.
+  const Eigen::Vector3d dir = (first - moved).normalized();
+  double off = 0;
+  for (const Eigen::Vector3d& p : path) off = std::max(off, ((p - moved) - (p - moved).dot(dir) * dir).norm());
+  EXPECT_LT(off, 0.002) << "the nozzle left the straight way to the first waypoint";
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle(last); }, 10.0)) << rig.driver().status().reason;
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+}
