@@ -55,6 +55,9 @@ TEST(Config, BadKeysAndValuesNameFileKeyAndRange) {
   expectError("cameras:\n  - {name: A, colour: red}\n", {"unknown key 'colour'", "cameras[0]"});
   expectError("cameras:\n  - {name: A, min_range: 2, max_range: 1}\n", {"max_range", "greater than min_range"});
   expectError("cameras:\n  - {name: A}\n  - {name: A}\n", {"'cameras[1].name'", "used twice"});
+  // A name is part of channels, heartbeat figures and the tracker's state file lines.
+  expectError("parts:\n  - {name: 'cube 1', mesh: a.stl}\n", {"'parts[0].name'", "'cube 1' must be 1 to 64 letters"});
+  expectError("cameras:\n  - {name: ''}\n", {"'cameras[0].name'", "must be 1 to 64"});
   expectError("parts:\n  - {name: p}\n", {"'parts[0].mesh'", "required"});
   expectError("parts:\n  - {name: p, mesh: a.stl, xi: 2}\n", {"'parts[0].xi'", "[0.0005, 0.1]"});
   expectError("parts:\n  - {name: p, mesh: a.stl, initial_pose: {xyz: [0, 0, 0], rpy_deg: [0, 0]}}\n",

@@ -158,6 +158,15 @@ int main(int argc, char** argv) {
         f.last_error = e.message;
         return;
       }
+      // The pixels are merged by their median: a camera that changed its resolution or depth unit
+      // starts its frames over, so all of them are of its newest mode.
+      if (!f.frames.empty() && (image.width != f.camera.width || image.height != f.camera.height ||
+                                image.depth_unit != f.frames.front().depth_unit)) {
+        std::cerr << "depowder-calibrate: " << msg.camera << " changed from " << f.camera.width << "x"
+                  << f.camera.height << " to " << image.width << "x" << image.height << " pixels (or its depth unit): "
+                  << "its " << f.frames.size() << " frames so far are dropped\n";
+        f.frames.clear();
+      }
       f.camera = camera;
       f.frames.push_back(std::move(image));
     };

@@ -70,7 +70,18 @@ CameraProxy::CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& 
       grid_(crop_, config.voxel_leaf),
       box_size_(box_size) {}
 
+FrameError CameraProxy::nameError(const std::string& camera) const {
+  if (camera.empty()) return {FrameStatus::kBadHeader, "a frame without a camera name"};
+  if (merger_.knows(camera) || merger_.cameras() < kMaxCameras) return {};
+  std::string names;
+  for (const CameraHealth& h : merger_.health(0)) names += (names.empty() ? "" : ", ") + h.name;
+  return {FrameStatus::kBadHeader, "camera '" + camera + "' would be camera " + std::to_string(kMaxCameras + 1) +
+                                       ", past the " + std::to_string(kMaxCameras) + " taken (" + names +
+                                       "): a mis-set camera name?"};
+}
+
 FrameError CameraProxy::addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival) {
+  if (FrameError e = nameError(camera.name); !e.ok()) return reject(e), e;
   auto it = deprojectors_.find(camera.name);
   if (it == deprojectors_.end()) it = deprojectors_.emplace(camera.name, Deprojector(crop_)).first;
   Cloud storage;
@@ -83,6 +94,7 @@ FrameError CameraProxy::addDepth(const DepthImage& image, const PinholeCamera& c
 
 FrameError CameraProxy::addCameraPoints(const Cloud& camera_points, std::int64_t utime, const PinholeCamera& camera,
                                         std::int64_t arrival) {
+  if (FrameError e = nameError(camera.name); !e.ok()) return reject(e), e;
   return accept(cameraPointsToCell(camera_points, camera, crop_), camera.name, utime, arrival);
 }
 

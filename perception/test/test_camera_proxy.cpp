@@ -130,6 +130,32 @@ TEST(CameraProxy, CorruptFramesAreCountedAndTheStreamGoesOn) {
   EXPECT_EQ(c.last_error.status, FrameStatus::kNoValidReturns);
 }
 
+// Frames under ever new camera names (a mis-set name, garbage that decodes) are refused past
+// kMaxCameras, naming the cameras taken, so the proxy's memory stays bounded; a frame without a
+// name is refused too. The known cameras' frames go on as before.
+TEST(CameraProxy, CameraNamesPastTheMostTakenAreRefused) {
+  auto rig = defaultRig(80, 60);
+  const Scene s = scene();
+  CameraProxy proxy(PerceptionConfig{}, kBox, {"LEFT", "RIGHT"});
+  std::int64_t t = kT0;
+  PinholeCamera other = rig[0];
+  for (std::size_t k = 2; k < CameraProxy::kMaxCameras; ++k, t += 1000) {
+    other.name = "CAM" + std::to_string(k);
+    ASSERT_TRUE(proxy.addDepth(render(s, other, t), other, t).ok()) << other.name;
+  }
+  other.name = "CAM99";
+  const FrameError e = proxy.addDepth(render(s, other, t), other, t);
+  EXPECT_EQ(e.status, FrameStatus::kBadHeader);
+  EXPECT_NE(e.message.find("camera 'CAM99' would be camera 17, past the 16 taken (CAM10, CAM11"), std::string::npos)
+      << e.message;
+  EXPECT_NE(e.message.find("LEFT, RIGHT): a mis-set camera name?"), std::string::npos) << e.message;
+  other.name = "";
+  EXPECT_EQ(proxy.addDepth(render(s, other, t), other, t).message, "a frame without a camera name");
+  EXPECT_EQ(proxy.health(t).size(), CameraProxy::kMaxCameras);
+  EXPECT_TRUE(proxy.addDepth(render(s, rig[1], t), rig[1], t).ok());
+  EXPECT_EQ(proxy.counters().by_status[static_cast<int>(FrameStatus::kBadHeader)], 2);
+}
+
 // A frame stamped before 0 or past 2^53 us (a garbage message that decodes) is refused, saying
 // its utime, and does not reach the merger; a nozzle pose stamped so is ignored, and does not
 // keep the next poses out (one from the far future would, being newer than any). The next

@@ -72,6 +72,10 @@ PlannerNodeOptions readPlannerOptions(const node::CellConfig& cell) {
   k.read("edge_step", c.collision.edge_step, 0.001, 0.05);
   k.read("max_joint_step", c.collision.max_joint_step, 0.01, 1.0);
   k.finish();
+  if (c.collision.max_joint_step >= robot.driver.trajectory.max_joint_jump)
+    k.fail("max_joint_step", "must be less than robot.max_joint_jump (" +
+                                 std::to_string(robot.driver.trajectory.max_joint_jump) +
+                                 " rad), or the driver refuses the plans as configuration flips");
   const node::YamlReader t = r.child("transition");
   t.read("time_limit", c.transition.time_limit, 0.01, 10.0);
   t.read("clearance", c.transition.clearance, 0.0, 0.3);

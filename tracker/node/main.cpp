@@ -120,6 +120,8 @@ int main(int argc, char** argv) {
       const auto& s = logic.stats();
       heartbeat.setStat("frames_in", static_cast<double>(s.frames));
       heartbeat.setStat("frames_invalid", static_cast<double>(s.invalid_frames));
+      heartbeat.setStat("frames_refused", static_cast<double>(s.refused_frames));
+      heartbeat.setStat("clock_restarts", static_cast<double>(s.clock_restarts));
       heartbeat.setStat("frames_skipped", static_cast<double>(skipped));
       heartbeat.setStat("frame_ms_p50", s.frame_ms_p50);
       heartbeat.setStat("frame_ms_p90", s.frame_ms_p90);

@@ -6,6 +6,7 @@
 #include <limits>
 #include <optional>
 
+#include "depowder/clock.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/node/convert.hpp"
 #include "progress_node.hpp"
@@ -168,10 +169,27 @@ part_pose_t TrackerNode::toMessage(std::int64_t utime, std::size_t i, const Trac
   return m;
 }
 
+std::string TrackerNode::refusedStamp(std::int64_t utime) {
+  if (!utimeInRange(utime)) return utimeOutOfRange(utime);
+  if (newest_utime_ >= 0 && utime <= newest_utime_) {
+    if (!clockWentBack(newest_utime_, utime))
+      return "utime " + std::to_string(utime) + ", not newer than the frame tracked last (utime " +
+             std::to_string(newest_utime_) + "): reordered, or a second camera proxy publishes POINTS";
+    ++stats_.clock_restarts;  // a log played again, the camera proxy restarted: tracked on from the last poses
+  }
+  newest_utime_ = utime;
+  return "";
+}
+
 std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
   const auto t0 = std::chrono::steady_clock::now();
   ++stats_.frames;
   std::vector<part_pose_t> out;
+  if (const std::string refused = refusedStamp(msg.utime); !refused.empty()) {
+    ++stats_.refused_frames;
+    stats_.last_problem = "POINTS at " + refused + ": not tracked";
+    return out;
+  }
   std::string why;
   const std::optional<Cloud> cloud = node::decodeCloud(msg, &why);
   if (!cloud) {

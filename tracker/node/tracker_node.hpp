@@ -44,12 +44,18 @@ class TrackerNode {
               const std::map<std::string, SavedPose>& resume = {});
 
   /// One POINTS message: one part_pose_t per part, in the cell's part order. A message that
-  /// does not decode gives every part its last pose with the reason (never throws).
+  /// does not decode gives every part its last pose with the reason (never throws). One stamped
+  /// outside 0 to 2^53 us, or not newer than the frame tracked last but by less than kClockJumpBack
+  /// (reordered, or a second camera proxy publishing), is refused: no PART_POSE, the reason in
+  /// stats().last_problem. One further back is the clock going back (depowder/clock.hpp): tracked,
+  /// and counted in stats().clock_restarts.
   std::vector<part_pose_t> onPoints(const point_cloud_t& msg);
 
   struct Stats {
     std::int64_t frames = 0;          ///< POINTS messages handled
     std::int64_t invalid_frames = 0;  ///< of them undecodable, empty or with NaN
+    std::int64_t refused_frames = 0;  ///< of them not tracked: stamped out of range or out of order
+    std::int64_t clock_restarts = 0;  ///< times POINTS' clock went back
     double frame_ms_p50 = 0;          ///< wall time of onPoints over the last 100 frames
     double frame_ms_p90 = 0;
     double frame_ms_max = 0;
@@ -65,6 +71,8 @@ class TrackerNode {
   const std::map<std::string, SavedPose>& lastPoses() const { return last_poses_; }
 
  private:
+  /// Why a frame stamped `utime` is not tracked ("" when it is; then it is the newest).
+  std::string refusedStamp(std::int64_t utime);
   part_pose_t toMessage(std::int64_t utime, std::size_t part, const TrackResult& r);
 
   TrackerNodeOptions options_;
@@ -74,6 +82,7 @@ class TrackerNode {
   std::deque<double> recent_ms_;
   std::vector<TrackResult> last_results_;
   Stats stats_;
+  std::int64_t newest_utime_ = -1;  ///< of the newest frame tracked (-1: none yet)
   std::map<std::string, SavedPose> last_poses_;
   std::map<std::string, Point> cameras_;  ///< name -> position (cell), for per-frame culling
 };

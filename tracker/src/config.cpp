@@ -97,7 +97,8 @@ std::string validate(const TrackerConfig& c) {
   return "";
 }
 
-void setField(TrackerConfig& c, const std::string& key, double value) {
+void setField(TrackerConfig& config, const std::string& key, double value) {
+  TrackerConfig c = config;  // changed only if the result validates
   const std::map<std::string, double*> fields{{"delta1_deg", &c.delta1_deg},
                                               {"delta2", &c.delta2},
                                               {"delta3", &c.delta3},
@@ -142,22 +143,25 @@ void setField(TrackerConfig& c, const std::string& key, double value) {
                                               {"progress.grid_cell", &c.progress.grid_cell},
                                               {"progress.contour_spacing", &c.progress.contour_spacing},
                                               {"progress.footprint_reuse", &c.progress.footprint_reuse}};
-  if (key == "icp.max_iterations") {
-    c.icp.max_iterations = static_cast<int>(value);
-  } else if (key == "filter.moving_frames") {
-    c.filter.moving_frames = static_cast<int>(value);
-  } else if (key == "filter.reset_frames") {
-    c.filter.reset_frames = static_cast<int>(value);
-  } else if (key == "filter.check_every") {
-    c.filter.check_every = static_cast<int>(value);
-  } else if (const auto it = fields.find(key); it != fields.end()) {
-    *it->second = value;
+  const std::map<std::string, int*> whole{{"icp.max_iterations", &c.icp.max_iterations},
+                                          {"filter.moving_frames", &c.filter.moving_frames},
+                                          {"filter.reset_frames", &c.filter.reset_frames},
+                                          {"filter.check_every", &c.filter.check_every}};
+  if (!std::isfinite(value)) throw std::invalid_argument("tracker " + key + ": not a finite number");
+  if (const auto it = whole.find(key); it != whole.end()) {
+    if (value != std::floor(value) || std::abs(value) > 1e9)
+      throw std::invalid_argument("tracker " + key + ": a whole number of at most 1e9, not " + std::to_string(value));
+    *it->second = static_cast<int>(value);
+  } else if (const auto f = fields.find(key); f != fields.end()) {
+    *f->second = value;
   } else {
-    std::string known = "icp.max_iterations, filter.moving_frames, filter.reset_frames, filter.check_every";
-    for (const auto& f : fields) known += ", " + f.first;
+    std::string known;
+    for (const auto& w : whole) known += (known.empty() ? "" : ", ") + w.first;
+    for (const auto& d : fields) known += ", " + d.first;
     throw std::invalid_argument("unknown tracker key '" + key + "' (known: " + known + ")");
   }
   if (const std::string why = validate(c); !why.empty()) throw std::invalid_argument("tracker " + key + ": " + why);
+  config = c;
 }
 
 }  // namespace depowder::tracker

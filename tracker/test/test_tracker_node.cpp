@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "depowder/clock.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/node/yaml.hpp"
@@ -178,7 +179,8 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
   const TwoParts s;
   const node::CellConfig cell = node::loadCellFromString(s.yaml());
   TrackerNode first(cell, readTrackerOptions(cell));
-  for (const Cloud& frame : s.frames(3)) first.onPoints(node::encodeCloud(frame, 7));
+  std::int64_t utime = 5;
+  for (const Cloud& frame : s.frames(3)) first.onPoints(node::encodeCloud(frame, utime++));
   ASSERT_EQ(first.lastPoses().size(), 2u);
   EXPECT_EQ(first.lastPoses().at("cube").utime, 7);
 
@@ -276,6 +278,7 @@ TEST(TrackerNode, BadFramesAreReportedAndTrackingGoesOn) {
     EXPECT_NE(m.status_reason.find("empty scan"), std::string::npos) << m.status_reason;
     EXPECT_NE(m.status_reason.find("last good pose kept"), std::string::npos) << m.status_reason;
   }
+  broken.utime = 4;
   for (const part_pose_t& m : node.onPoints(broken)) EXPECT_EQ(m.status, +part_pose_t::LOST);
   for (const part_pose_t& m : node.onPoints(node::encodeCloud(frames[1], 5))) {
     EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.status_reason;
@@ -285,6 +288,39 @@ TEST(TrackerNode, BadFramesAreReportedAndTrackingGoesOn) {
   EXPECT_EQ(node.stats().frames, 5);
   EXPECT_EQ(node.stats().invalid_frames, 3);
   EXPECT_GT(node.stats().frame_ms_p50, 0.0);
+}
+
+// A frame not newer than the one tracked last (a reordered packet, a second camera proxy) is not
+// tracked, nor one stamped out of range: tracking it would step the parts back in time. One more
+// than kClockJumpBack behind is the clock going back (a log played again): tracked on.
+TEST(TrackerNode, FramesOutOfOrderAreRefusedAndAClockGoingBackIsTrackedOn) {
+  const TwoParts s;
+  const node::CellConfig cell = node::loadCellFromString(s.yaml());
+  TrackerNode node(cell, readTrackerOptions(cell));
+  const std::vector<Cloud> frames = s.frames(2);
+  const std::int64_t t = 10'000'000;
+  ASSERT_EQ(node.onPoints(node::encodeCloud(frames[0], t)).size(), 2u);
+  for (const std::int64_t stale : {t, t - 33'000, t - kClockJumpBack}) {
+    EXPECT_TRUE(node.onPoints(node::encodeCloud(frames[1], stale)).empty()) << stale;
+    EXPECT_EQ(node.stats().last_problem, "POINTS at utime " + std::to_string(stale) +
+                                             ", not newer than the frame tracked last (utime 10000000): reordered, "
+                                             "or a second camera proxy publishes POINTS: not tracked");
+  }
+  EXPECT_TRUE(node.onPoints(node::encodeCloud(frames[1], -1)).empty());
+  EXPECT_NE(node.stats().last_problem.find("utime -1 us, outside 0 to 2^53 us"), std::string::npos);
+  EXPECT_EQ(node.stats().refused_frames, 4);
+  EXPECT_EQ(node.stats().clock_restarts, 0);
+  const std::int64_t replayed = t - kClockJumpBack - 1;
+  for (const std::int64_t u : {replayed, replayed + 33'000}) {
+    const std::vector<part_pose_t> out = node.onPoints(node::encodeCloud(frames[1], u));
+    ASSERT_EQ(out.size(), 2u);
+    for (const part_pose_t& m : out) {
+      EXPECT_EQ(m.utime, u);
+      EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
+    }
+  }
+  EXPECT_EQ(node.stats().clock_restarts, 1);
+  EXPECT_EQ(node.stats().frames, 7);
 }
 
 TEST(TrackerNode, BrokenMeshesAreRefusedAtStartUp) {

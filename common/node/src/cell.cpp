@@ -1,6 +1,7 @@
 #include "depowder/node/cell.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -17,9 +18,20 @@ double CameraConfig::fy() const { return focalLength(height, fov_v_deg); }
 
 namespace {
 
+/// A camera's or part's name: it is part of channels (DEPTH_<camera>), heartbeat figures and the
+/// tracker's state file, so letters, digits, '_', '-' and '.' only.
+void readName(const YamlReader& r, std::string& name) {
+  r.require("name", name);
+  const bool plain = std::all_of(name.begin(), name.end(), [](unsigned char ch) {
+    return std::isalnum(ch) || ch == '_' || ch == '-' || ch == '.';
+  });
+  if (name.empty() || name.size() > 64 || !plain)
+    r.fail("name", "'" + name + "' must be 1 to 64 letters, digits, '_', '-' or '.'");
+}
+
 CameraConfig readCamera(const YamlReader& r) {
   CameraConfig c;
-  r.require("name", c.name);
+  readName(r, c.name);
   r.read("width", c.width, 16, 4096);
   r.read("height", c.height, 16, 4096);
   r.read("fov_h_deg", c.fov_h_deg, 10.0, 170.0);
@@ -50,7 +62,7 @@ CameraConfig readCamera(const YamlReader& r) {
 
 PartConfig readPart(const YamlReader& r) {
   PartConfig p;
-  r.require("name", p.name);
+  readName(r, p.name);
   r.require("mesh", p.mesh);
   if (!p.mesh.empty() && p.mesh[0] != '/' && !r.directory().empty()) p.mesh = r.directory() + "/" + p.mesh;
   r.read("mesh_scale", p.mesh_scale, 1e-6, 1e3);

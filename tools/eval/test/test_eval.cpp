@@ -836,4 +836,11 @@ TEST(EvalTrackerSet, KnownKeysOnlyAndValidated) {
   EXPECT_EQ(c.icp.max_iterations, 12);
   EXPECT_THROW(tracker::setField(c, "icp.teleport", 1.0), std::invalid_argument);
   EXPECT_THROW(tracker::setField(c, "delta3", 2.0), std::invalid_argument);  // out of (0, 1]
+  EXPECT_EQ(c.delta3, baseTrackerConfig().delta3);
+  // A whole-number key takes whole numbers only (a cast of NaN or 1e20 to int is undefined), and
+  // no key takes NaN; the config is left as it was.
+  for (const double bad : {std::nan(""), 1e20, 2.5, -1e10})
+    EXPECT_THROW(tracker::setField(c, "icp.max_iterations", bad), std::invalid_argument) << bad;
+  EXPECT_THROW(tracker::setField(c, "visibility.powder_margin", std::nan("")), std::invalid_argument);
+  EXPECT_EQ(c.icp.max_iterations, 12);
 }

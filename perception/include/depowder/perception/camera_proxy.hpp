@@ -49,12 +49,17 @@ struct ProxyCounters {
 
 class CameraProxy {
  public:
+  /// Cameras kept (known and seen): a frame of a further camera name is refused (kBadHeader), as
+  /// each name holds its own rays and health figures and a stream of mis-set names would exhaust memory.
+  static constexpr std::size_t kMaxCameras = 16;
+
   /// `box_size`: interior of the build box (m); `known_cameras` as FrameMerger's.
   CameraProxy(const PerceptionConfig& config, const Eigen::Vector3d& box_size,
               std::vector<std::string> known_cameras = {});
 
   /// A depth frame of `camera`, arrived at wall-clock `arrival` (us). One stamped outside 0 to
-  /// 2^53 us (kMaxUtime, depowder/clock.hpp) is refused (kBadHeader); addNozzlePose ignores a pose stamped so.
+  /// 2^53 us (kMaxUtime, depowder/clock.hpp), or of a camera without a name or beyond kMaxCameras, is
+  /// refused (kBadHeader); addNozzlePose ignores a pose stamped so.
   FrameError addDepth(const DepthImage& image, const PinholeCamera& camera, std::int64_t arrival);
 
   /// A recorded scan: camera-frame points captured at `utime` by `camera` (pose and range used).
@@ -84,6 +89,8 @@ class CameraProxy {
   const PerceptionConfig& config() const { return config_; }
 
  private:
+  /// Why a frame of this camera is refused by its name (kOk when it is taken).
+  FrameError nameError(const std::string& camera) const;
   FrameError accept(CameraCloud&& cloud, const std::string& camera, std::int64_t utime, std::int64_t arrival);
   CellCloud finish(MergedFrame&& merged);
   void checkAgreement(const MergedFrame& merged);

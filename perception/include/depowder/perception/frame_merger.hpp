@@ -75,6 +75,9 @@ class FrameMerger {
   std::vector<CameraHealth> health(std::int64_t now) const;
 
   std::size_t pending() const { return pending_.size(); }
+  /// Cameras known or seen, and whether `name` is one.
+  std::size_t cameras() const { return cameras_.size(); }
+  bool knows(const std::string& name) const { return cameras_.count(name) > 0; }
 
   /// Times the capture clock went back and the merger started over, and the last one, said.
   std::int64_t restarts() const { return restarts_; }

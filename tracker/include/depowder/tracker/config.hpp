@@ -145,8 +145,9 @@ struct TrackerConfig {
 std::string validate(const TrackerConfig& config);
 
 /// Sets the numeric field `key`, named as in the YAML ("delta2", "icp.tangent_weight", ...), to
-/// `value` (the --set of depowder-bench and depowder-eval). Throws std::invalid_argument
-/// naming the known keys, or what validate() finds wrong with the result.
+/// `value` (the --set of depowder-bench and depowder-eval). Throws std::invalid_argument, leaving
+/// `config` as it was, naming the known keys, a value that is not a number (or not a whole one for
+/// a count), or what validate() finds wrong with the result.
 void setField(TrackerConfig& config, const std::string& key, double value);
 
 }  // namespace depowder::tracker
