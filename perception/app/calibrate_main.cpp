@@ -160,15 +160,12 @@ int main(int argc, char** argv) {
       }
       // The pixels are merged by their median: a camera that changed its resolution or depth unit
       // starts its frames over, so all of them are of its newest mode.
-      if (!f.frames.empty() && (image.width != f.camera.width || image.height != f.camera.height ||
-                                image.depth_unit != f.frames.front().depth_unit)) {
-        std::cerr << "depowder-calibrate: " << msg.camera << " changed from " << f.camera.width << "x"
-                  << f.camera.height << " to " << image.width << "x" << image.height << " pixels (or its depth unit): "
-                  << "its " << f.frames.size() << " frames so far are dropped\n";
-        f.frames.clear();
-      }
+      const PinholeCamera before = f.camera;
       f.camera = camera;
-      f.frames.push_back(std::move(image));
+      if (const std::size_t dropped = addMedianFrame(f.frames, std::move(image)))
+        std::cerr << "depowder-calibrate: " << msg.camera << " changed from " << before.width << "x" << before.height
+                  << " to " << camera.width << "x" << camera.height << " pixels (or its depth unit): its " << dropped
+                  << " frames so far are dropped\n";
     };
     auto done = [&] {
       for (const std::string& name : wanted)

@@ -117,6 +117,19 @@ DepthImage medianDepth(const std::vector<DepthImage>& frames) {
   return out;
 }
 
+std::size_t addMedianFrame(std::vector<DepthImage>& frames, DepthImage image) {
+  std::size_t dropped = 0;
+  if (!frames.empty()) {
+    const DepthImage& first = frames.front();
+    if (image.width != first.width || image.height != first.height || image.depth_unit != first.depth_unit) {
+      dropped = frames.size();
+      frames.clear();
+    }
+  }
+  frames.push_back(std::move(image));
+  return dropped;
+}
+
 BoxCalibration calibrateAgainstBox(const Cloud& camera_points, const Pose& T_initial, const Eigen::Vector3d& box_size,
                                    double wall, const BoxCalibrationConfig& config) {
   BoxCalibration out;

@@ -110,3 +110,31 @@ TEST(BoxCalibration, BadInputsSayWhatIsWrong) {
   EXPECT_FALSE(c.ok);
   EXPECT_FALSE(c.problem.empty());
 }
+
+// A camera that switches mode while its frames are collected: the frames start over at the new
+// mode, so the median is of those alone (the pixel values are the medians to expect).
+TEST(BoxCalibration, FramesOfAnotherModeStartTheMedianOver) {
+  auto frame = [](int width, int height, double unit, std::uint16_t z) {
+    DepthImage d;
+    d.width = width;
+    d.height = height;
+    d.depth_unit = unit;
+    d.depth.assign(static_cast<std::size_t>(width) * height, z);
+    return d;
+  };
+  std::vector<DepthImage> frames;
+  EXPECT_EQ(addMedianFrame(frames, frame(4, 3, 0.00025, 1000)), 0u);
+  EXPECT_EQ(addMedianFrame(frames, frame(4, 3, 0.00025, 1010)), 0u);
+  EXPECT_EQ(addMedianFrame(frames, frame(4, 3, 0.00025, 1020)), 0u);
+  EXPECT_EQ(medianDepth(frames).depth.at(5), 1010);
+  EXPECT_EQ(addMedianFrame(frames, frame(8, 6, 0.00025, 2000)), 3u);  // the resolution changed
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(addMedianFrame(frames, frame(8, 6, 0.00025, 2004)), 0u);
+  EXPECT_EQ(addMedianFrame(frames, frame(8, 6, 0.00025, 2002)), 0u);
+  const DepthImage merged = medianDepth(frames);
+  ASSERT_EQ(merged.depth.size(), 48u);
+  EXPECT_EQ(merged.depth[47], 2002);
+  EXPECT_EQ(addMedianFrame(frames, frame(8, 6, 0.0005, 1001)), 3u);  // the depth unit changed
+  EXPECT_EQ(frames.size(), 1u);
+  EXPECT_EQ(medianDepth(frames).depth_unit, 0.0005);
+}

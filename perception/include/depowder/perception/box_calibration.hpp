@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "depowder/geometry.hpp"
 #include "depowder/perception/depth.hpp"
@@ -40,6 +41,11 @@ struct BoxCalibration {
 /// there (0 where fewer than half do). The depth noise of N frames drops about sqrt(N) times.
 /// Every frame must have the first one's size and depth unit (else an empty image).
 DepthImage medianDepth(const std::vector<DepthImage>& frames);
+
+/// Adds `image` to one camera's frames for medianDepth. A frame of another size or depth unit than
+/// those before (the camera switched mode while they were collected) starts the frames over, so
+/// they are all of its newest mode; returns how many were dropped for it.
+std::size_t addMedianFrame(std::vector<DepthImage>& frames, DepthImage image);
 
 /// Refines T_cell_camera from `camera_points` (camera frame, e.g. a deprojected depth image)
 /// starting at `T_initial`, against a box of interior `box_size` (cell origin at the centre of
