@@ -90,6 +90,11 @@ std::vector<double> distances(const Cloud& camera_points, const Pose& T, const s
   return d;
 }
 
+// Whether two frames of one camera can be merged pixel by pixel: the same size and depth unit.
+bool sameMode(const DepthImage& a, const DepthImage& b) {
+  return a.width == b.width && a.height == b.height && a.depth_unit == b.depth_unit && a.depth.size() == b.depth.size();
+}
+
 using Mat7 = Eigen::Matrix<double, 7, 7>;
 using Vec7 = Eigen::Matrix<double, 7, 1>;
 
@@ -99,9 +104,7 @@ DepthImage medianDepth(const std::vector<DepthImage>& frames) {
   if (frames.empty()) return {};
   DepthImage out = frames.front();
   for (const DepthImage& f : frames)
-    if (f.width != out.width || f.height != out.height || f.depth_unit != out.depth_unit ||
-        f.depth.size() != out.depth.size())
-      return {};
+    if (!sameMode(f, out)) return {};
   std::vector<std::uint16_t> v;
   for (std::size_t i = 0; i < out.depth.size(); ++i) {
     v.clear();
@@ -119,12 +122,9 @@ DepthImage medianDepth(const std::vector<DepthImage>& frames) {
 
 std::size_t addMedianFrame(std::vector<DepthImage>& frames, DepthImage image) {
   std::size_t dropped = 0;
-  if (!frames.empty()) {
-    const DepthImage& first = frames.front();
-    if (image.width != first.width || image.height != first.height || image.depth_unit != first.depth_unit) {
-      dropped = frames.size();
-      frames.clear();
-    }
+  if (!frames.empty() && !sameMode(image, frames.front())) {
+    dropped = frames.size();
+    frames.clear();
   }
   frames.push_back(std::move(image));
   return dropped;
