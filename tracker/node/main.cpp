@@ -123,6 +123,7 @@ int main(int argc, char** argv) {
       heartbeat.setStat("frames_refused", static_cast<double>(s.refused_frames));
       heartbeat.setStat("clock_restarts", static_cast<double>(s.clock_restarts));
       heartbeat.setStat("frames_skipped", static_cast<double>(skipped));
+      heartbeat.setStat("gap_periods_max", s.max_gap_periods);
       heartbeat.setStat("frame_ms_p50", s.frame_ms_p50);
       heartbeat.setStat("frame_ms_p90", s.frame_ms_p90);
       heartbeat.setStat("frame_ms_max", s.frame_ms_max);

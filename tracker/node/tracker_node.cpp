@@ -110,6 +110,7 @@ TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions&
   trackers_ = std::make_unique<MultiTracker>(std::move(parts), options_.threads);
   if (options_.cull_with_cameras)
     for (const node::CameraConfig& cam : cell.cameras) cameras_[cam.name] = cam.T_cell_camera.translation();
+  for (const node::CameraConfig& cam : cell.cameras) frame_rate_ = std::max(frame_rate_, cam.rate_hz);
   published_version_.assign(trackers_->size(), -1);
   encoded_.resize(trackers_->size());
 }
@@ -216,6 +217,14 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
         seen_names += (seen_names.empty() ? "" : ", ") + source;
       }
     const bool partial = !seen_from.empty() && seen_from.size() < cameras_.size();
+    // Frames dropped since the parts last tracked (this process tracks the newest POINTS only):
+    // the filter's prediction covers the time (PartTracker::elapse). 1 after the clock went back.
+    if (tracked_utime_ >= 0 && msg.utime > tracked_utime_ && frame_rate_ > 0) {
+      const double periods = secondsBetween(msg.utime, tracked_utime_) * frame_rate_;
+      for (std::size_t i = 0; i < trackers_->size(); ++i) trackers_->part(i).elapse(periods);
+      stats_.max_gap_periods = std::max(stats_.max_gap_periods, periods);
+    }
+    tracked_utime_ = msg.utime;
     const std::vector<TrackResult> results = partial ? trackers_->track(*cloud, seen_from) : trackers_->track(*cloud);
     last_results_ = results;
     stats_.last_problem.clear();

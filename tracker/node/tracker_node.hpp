@@ -56,6 +56,7 @@ class TrackerNode {
     std::int64_t invalid_frames = 0;  ///< of them undecodable, empty or with NaN
     std::int64_t refused_frames = 0;  ///< of them not tracked: stamped out of range or out of order
     std::int64_t clock_restarts = 0;  ///< times POINTS' clock went back
+    double max_gap_periods = 0;       ///< the longest time between two frames tracked, in camera frame periods
     double frame_ms_p50 = 0;          ///< wall time of onPoints over the last 100 frames
     double frame_ms_p90 = 0;
     double frame_ms_max = 0;
@@ -82,7 +83,9 @@ class TrackerNode {
   std::deque<double> recent_ms_;
   std::vector<TrackResult> last_results_;
   Stats stats_;
-  std::int64_t newest_utime_ = -1;  ///< of the newest frame tracked (-1: none yet)
+  std::int64_t newest_utime_ = -1;   ///< of the newest frame tracked (-1: none yet)
+  std::int64_t tracked_utime_ = -1;  ///< of the last frame the parts tracked (it decoded)
+  double frame_rate_ = 0;            ///< Hz, the cell's fastest camera: the period of POINTS
   std::map<std::string, SavedPose> last_poses_;
   std::map<std::string, Point> cameras_;  ///< name -> position (cell), for per-frame culling
 };

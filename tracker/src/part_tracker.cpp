@@ -88,6 +88,7 @@ PosePrior PartTracker::predicted() const {
   Vector6d q = processVariance();
   const double turn = falling_ ? 1 : f.still_turn + (1 - f.still_turn) * turn_open_;
   q.head<3>() *= turn * turn;
+  q *= periods_;  // a random walk: its variance grows with the frame periods since the last fit
   // The part turns about the middle of what the cameras see of it, not about its origin: in
   // PosePrior's coordinates a turn w about c also moves the origin by w x (t - c).
   Matrix6d M = Matrix6d::Identity();
@@ -261,6 +262,13 @@ void PartTracker::updateMotionState() {
 
 TrackResult PartTracker::track(const Cloud& scan) { return track(scan, config_.viewpoints); }
 
+void PartTracker::elapse(double periods) {
+  if (!std::isfinite(periods))
+    throw std::invalid_argument("part '" + name_ + "': elapsed frame periods must be finite, not " +
+                                std::to_string(periods));
+  next_periods_ = std::max(1.0, periods);
+}
+
 void PartTracker::predictMotion(const Pose& delta) {
   if (!delta.matrix().allFinite() || !isValidPose(delta, 1e-6))
     throw std::invalid_argument("part '" + name_ + "': a predicted motion must be a finite rigid transform");
@@ -272,6 +280,8 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   T_cell_part_ = predicted_motion_ * T_cell_part_;  // predictMotion's (the identity leaves it bit for bit)
   if (!started_) T_cell_part_init_ = T_cell_part_;  // the same pose until Phase 1 ends
   predicted_motion_ = Pose::Identity();
+  periods_ += next_periods_;  // the filter's process noise covers the time since its last fit
+  next_periods_ = 1;
   TrackResult r;
   r.T_cell_part = T_cell_part_;
   r.eta = eta_;
@@ -305,6 +315,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     const double eta = estimateEta(T_cell_part_init_, crop_, &why);
     r.timing.progress_ms = msSince(t0);
     if (std::isnan(eta) || eta <= config_.eta1) {
+      periods_ = 0;  // the filter starts with the first fit, from the initial pose's uncertainty
       r.status = TrackStatus::kWaiting;
       if (!std::isnan(eta)) eta_ = r.eta = eta;
       r.reason = std::isnan(eta) ? "phase 1: " + why
@@ -403,6 +414,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (!reset) T_cell_part_ = reg.T_target_source;
   if (filter) {
     if (!reset) information_ = prior.information + reg.information / config_.filter.data_inflation;
+    periods_ = 0;
     updateMotionState();
   }
   r.moving = moving_;

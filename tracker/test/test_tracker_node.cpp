@@ -323,6 +323,29 @@ TEST(TrackerNode, FramesOutOfOrderAreRefusedAndAClockGoingBackIsTrackedOn) {
   EXPECT_EQ(node.stats().frames, 7);
 }
 
+// The time between two frames tracked, in the cameras' frame periods (30 Hz here), is told to
+// the parts' filters (PartTracker::elapse) and its longest is in the stats. A frame refused or
+// one after the clock went back tells none.
+TEST(TrackerNode, TheTimeBetweenFramesIsToldInFramePeriods) {
+  const TwoParts s;
+  const node::CellConfig cell = node::loadCellFromString(s.yaml());
+  TrackerNode node(cell, readTrackerOptions(cell));
+  const std::vector<Cloud> frames = s.frames(2);
+  const std::int64_t t = 10'000'000;
+  node.onPoints(node::encodeCloud(frames[0], t));
+  EXPECT_EQ(node.stats().max_gap_periods, 0.0);
+  node.onPoints(node::encodeCloud(frames[1], t + 33'333));
+  EXPECT_NEAR(node.stats().max_gap_periods, 1.0, 1e-3);
+  node.onPoints(node::encodeCloud(frames[1], t + 33'333));  // not newer: refused
+  node.onPoints(node::encodeCloud(frames[0], t + 2'033'333));
+  EXPECT_NEAR(node.stats().max_gap_periods, 60.0, 1e-3);
+  node.onPoints(node::encodeCloud(frames[0], t - 5'000'000));  // the clock went back
+  node.onPoints(node::encodeCloud(frames[1], t - 5'000'000 + 33'333));
+  EXPECT_NEAR(node.stats().max_gap_periods, 60.0, 1e-3);
+  EXPECT_EQ(node.stats().clock_restarts, 1);
+  EXPECT_EQ(node.stats().refused_frames, 1);
+}
+
 TEST(TrackerNode, BrokenMeshesAreRefusedAtStartUp) {
   const TwoParts s;
   char dir[] = "/tmp/depowder_tracker_node_XXXXXX";

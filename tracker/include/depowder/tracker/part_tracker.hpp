@@ -83,6 +83,13 @@ class PartTracker {
   /// the true motion, which bounds what a motion model could add to the tracker.
   void predictMotion(const Pose& delta);
 
+  /// The next frame comes `periods` frame periods after the one given before it (more than 1:
+  /// frames were dropped; the node tracks the newest POINTS only and tells it from their
+  /// utimes). The filter's prediction for that frame adds as many periods of process noise
+  /// (FilterConfig's q_* are per frame), as it does for the frames this tracker refused since it
+  /// last fitted. Below 1 counts as 1. Throws std::invalid_argument for NaN or infinity.
+  void elapse(double periods);
+
   /// The part had left Phase 1 before the tracker restarted (its state file): it is tracked from
   /// the next frame on, whatever eta then is; that frame derives its template at the pose.
   void resume() { started_ = true; }
@@ -119,6 +126,8 @@ class PartTracker {
   bool started_ = false;
   Pose T_cell_part_;                              ///< T_i
   Pose predicted_motion_ = Pose::Identity();      ///< predictMotion's, applied at the next frame
+  double next_periods_ = 1;                       ///< elapse's, for the next frame
+  double periods_ = 0;                            ///< frame periods since the filter last took a fit
   double eta_ = 0;                                ///< last estimate
   UpdateReference last_update_;                   ///< R_last, t_last, eta_last
   Indices template_;                              ///< P_tmpl
