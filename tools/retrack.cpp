@@ -130,7 +130,7 @@ int main(int argc, char** argv) {
         const double t = secondsBetween(times.utime[event], start);
         if (t > to) break;
         // Every frame is tracked, also before --from: the tracker's state depends on them all.
-        const std::vector<part_pose_t> poses = node.onPoints(m);
+        const std::vector<part_pose_t> poses = node.onPoints(m, times.utime[event]);
         ++frames;
         const bool print = t >= from && (every <= 0 || t >= next_print);
         if (print) next_print = t + every;

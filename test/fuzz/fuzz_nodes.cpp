@@ -38,7 +38,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (kind == 0) {
       point_cloud_t m;
       if (!decoded(m, msg, n)) return;
-      for (const part_pose_t& pose : tracker.onPoints(m)) {
+      for (const part_pose_t& pose : tracker.onPoints(m, now_us)) {
         progress.onPose(pose);
         planner.onPose(pose, now_us);
       }

@@ -9,6 +9,7 @@
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/cell.hpp"
+#include "depowder/node/convert.hpp"
 #include "depowder/node/heartbeat.hpp"
 #include "depowder/node/shutdown.hpp"
 #include "depowder/point_cloud_t.hpp"
@@ -85,6 +86,7 @@ int main(int argc, char** argv) {
     node::Heartbeat heartbeat(bus, "depowder-tracker", options.heartbeat_period);
     heartbeat.setStat("cell_model", node::cellModelId(cell));  // depowder-status compares hosts
     std::optional<point_cloud_t> pending;
+    std::int64_t pending_arrival = 0;  // node::steadyUtime when it arrived (the far-ahead rule)
     std::int64_t skipped = 0;
     bus.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& msg, const std::string&) {
       if (pending) {
@@ -92,6 +94,7 @@ int main(int argc, char** argv) {
         heartbeat.addDropped();
       }
       pending = msg;
+      pending_arrival = node::steadyUtime();
     });
     heartbeat.setState(heartbeat_t::RUNNING);
     heartbeat.publish();
@@ -106,7 +109,7 @@ int main(int argc, char** argv) {
       if (pending) {
         const point_cloud_t frame = std::move(*pending);
         pending.reset();
-        for (const part_pose_t& m : logic.onPoints(frame)) bus.publish("PART_POSE", m);
+        for (const part_pose_t& m : logic.onPoints(frame, pending_arrival)) bus.publish("PART_POSE", m);
       }
       if (!options.state_file.empty() && !logic.lastPoses().empty() &&
           std::chrono::steady_clock::now() - last_save > std::chrono::duration<double>(options.state_period)) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <optional>
 
@@ -170,23 +171,39 @@ part_pose_t TrackerNode::toMessage(std::int64_t utime, std::size_t i, const Trac
   return m;
 }
 
-std::string TrackerNode::refusedStamp(std::int64_t utime) {
+std::string TrackerNode::refusedStamp(std::int64_t utime, std::int64_t arrival) {
   if (!utimeInRange(utime)) return utimeOutOfRange(utime);
-  if (newest_utime_ >= 0 && utime <= newest_utime_) {
-    if (!clockWentBack(newest_utime_, utime))
-      return "utime " + std::to_string(utime) + ", not newer than the frame tracked last (utime " +
-             std::to_string(newest_utime_) + "): reordered, or a second camera proxy publishes POINTS";
-    ++stats_.clock_restarts;  // a log played again, the camera proxy restarted: tracked on from the last poses
+  if (newest_utime_ >= 0) {
+    if (const std::int64_t ahead = runsAhead(newest_utime_, newest_arrival_, utime, arrival); ahead > kClockJumpBack) {
+      char seconds[32];
+      std::snprintf(seconds, sizeof seconds, "%.1f", static_cast<double>(ahead) * 1e-6);
+      if (!ahead_.confirms(utime, arrival))
+        return "utime " + std::to_string(utime) + ", " + seconds + " s ahead of the frame tracked last (utime " +
+               std::to_string(newest_utime_) +
+               ") and the time since: a bad stamp, unless the next frame runs with it (the cameras' clock jumped "
+               "forward)";
+      ++stats_.clock_restarts;  // the cameras' clock jumped forward: tracked on from the last poses
+      tracked_utime_ = -1;      // no time to tell the filters
+    } else {
+      ahead_.forget();
+      if (utime <= newest_utime_) {
+        if (!clockWentBack(newest_utime_, utime))
+          return "utime " + std::to_string(utime) + ", not newer than the frame tracked last (utime " +
+                 std::to_string(newest_utime_) + "): reordered, or a second camera proxy publishes POINTS";
+        ++stats_.clock_restarts;  // a log played again, the camera proxy restarted: tracked on from the last poses
+      }
+    }
   }
   newest_utime_ = utime;
+  newest_arrival_ = arrival;
   return "";
 }
 
-std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg) {
+std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg, std::int64_t arrival) {
   const auto t0 = std::chrono::steady_clock::now();
   ++stats_.frames;
   std::vector<part_pose_t> out;
-  if (const std::string refused = refusedStamp(msg.utime); !refused.empty()) {
+  if (const std::string refused = refusedStamp(msg.utime, arrival); !refused.empty()) {
     ++stats_.refused_frames;
     stats_.last_problem = "POINTS at " + refused + ": not tracked";
     return out;

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "depowder/clock.hpp"
 #include "depowder/node/cell.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/point_cloud_t.hpp"
@@ -43,19 +44,23 @@ class TrackerNode {
   TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions& options,
               const std::map<std::string, SavedPose>& resume = {});
 
-  /// One POINTS message: one part_pose_t per part, in the cell's part order. A message that
-  /// does not decode gives every part its last pose with the reason (never throws). One stamped
-  /// outside 0 to 2^53 us, or not newer than the frame tracked last but by less than kClockJumpBack
-  /// (reordered, or a second camera proxy publishing), is refused: no PART_POSE, the reason in
-  /// stats().last_problem. One further back is the clock going back (depowder/clock.hpp): tracked,
-  /// and counted in stats().clock_restarts.
-  std::vector<part_pose_t> onPoints(const point_cloud_t& msg);
+  /// One POINTS message, arrived at `arrival` (us on a clock that only moves forward:
+  /// node::steadyUtime; a log's event time on replay): one part_pose_t per part, in the cell's part
+  /// order. A message that does not decode gives every part its last pose with the reason (never
+  /// throws). Refused (no PART_POSE, the reason in stats().last_problem): one stamped outside 0 to
+  /// 2^53 us; one not newer than the frame tracked last but by less than kClockJumpBack (reordered,
+  /// or a second camera proxy publishing); one that runs more than kClockJumpBack ahead of it and
+  /// the time since, unless the frame refused before it was so too and this one runs with it (a
+  /// bad stamp; the clock jumped forward: depowder/clock.hpp). One further back than
+  /// kClockJumpBack is the clock going back: tracked. Both clock changes count in
+  /// stats().clock_restarts.
+  std::vector<part_pose_t> onPoints(const point_cloud_t& msg, std::int64_t arrival);
 
   struct Stats {
     std::int64_t frames = 0;          ///< POINTS messages handled
     std::int64_t invalid_frames = 0;  ///< of them undecodable, empty or with NaN
     std::int64_t refused_frames = 0;  ///< of them not tracked: stamped out of range or out of order
-    std::int64_t clock_restarts = 0;  ///< times POINTS' clock went back
+    std::int64_t clock_restarts = 0;  ///< times POINTS' clock went back or jumped forward
     double max_gap_periods = 0;       ///< the longest time between two frames tracked, in camera frame periods
     double frame_ms_p50 = 0;          ///< wall time of onPoints over the last 100 frames
     double frame_ms_p90 = 0;
@@ -73,7 +78,7 @@ class TrackerNode {
 
  private:
   /// Why a frame stamped `utime` is not tracked ("" when it is; then it is the newest).
-  std::string refusedStamp(std::int64_t utime);
+  std::string refusedStamp(std::int64_t utime, std::int64_t arrival);
   part_pose_t toMessage(std::int64_t utime, std::size_t part, const TrackResult& r);
 
   TrackerNodeOptions options_;
@@ -84,6 +89,8 @@ class TrackerNode {
   std::vector<TrackResult> last_results_;
   Stats stats_;
   std::int64_t newest_utime_ = -1;   ///< of the newest frame tracked (-1: none yet)
+  std::int64_t newest_arrival_ = 0;  ///< when it arrived
+  AheadWatch ahead_;                 ///< the last frame, if it was refused as far ahead
   std::int64_t tracked_utime_ = -1;  ///< of the last frame the parts tracked (it decoded)
   double frame_rate_ = 0;            ///< Hz, the cell's fastest camera: the period of POINTS
   std::map<std::string, SavedPose> last_poses_;

@@ -22,6 +22,9 @@ namespace {
 using namespace depowder;
 using namespace depowder::tracker;
 
+// POINTS as a log played at its pace brings it: arriving at its own utime.
+std::vector<part_pose_t> feed(TrackerNode& node, const point_cloud_t& msg) { return node.onPoints(msg, msg.utime); }
+
 const std::string kParts = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/";
 constexpr double kDeepPowder = 0.065;  // m: powder this high leaves both parts under eta1 (cube 6 cm, owl 8.6)
 
@@ -137,7 +140,7 @@ TEST(TrackerNode, OnePosePerPartWithTheFrameUtime) {
   const std::vector<Cloud> frames = s.frames(5);
   std::vector<part_pose_t> out;
   for (std::size_t k = 0; k < frames.size(); ++k) {
-    out = node.onPoints(node::encodeCloud(frames[k], 1000 + k));
+    out = feed(node, node::encodeCloud(frames[k], 1000 + k));
     ASSERT_EQ(out.size(), 2u);
     for (const part_pose_t& m : out) {
       EXPECT_EQ(m.utime, static_cast<std::int64_t>(1000 + k));
@@ -180,7 +183,7 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
   const node::CellConfig cell = node::loadCellFromString(s.yaml());
   TrackerNode first(cell, readTrackerOptions(cell));
   std::int64_t utime = 5;
-  for (const Cloud& frame : s.frames(3)) first.onPoints(node::encodeCloud(frame, utime++));
+  for (const Cloud& frame : s.frames(3)) feed(first, node::encodeCloud(frame, utime++));
   ASSERT_EQ(first.lastPoses().size(), 2u);
   EXPECT_EQ(first.lastPoses().at("cube").utime, 7);
 
@@ -203,16 +206,16 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
   for (std::size_t i = 0; i < 2; ++i)
     EXPECT_LT(translationDistance(second.trackers().part(i).pose(), saved.at(second.partNames()[i]).T_cell_part),
               1e-12);
-  for (const part_pose_t& m : second.onPoints(node::encodeCloud(s.frames(1)[0], 8)))
+  for (const part_pose_t& m : feed(second, node::encodeCloud(s.frames(1)[0], 8)))
     EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
   // Even where eta is back under eta1 (the powder deep round the parts, as after a restart early
   // in Phase 2): a new node waits there, a resumed one tracks (it once waited with the pose frozen).
   const Cloud deep = s.frames(1, kDeepPowder)[0];
   TrackerNode fresh(cell, readTrackerOptions(cell));
-  for (const part_pose_t& m : fresh.onPoints(node::encodeCloud(deep, 9)))
+  for (const part_pose_t& m : feed(fresh, node::encodeCloud(deep, 9)))
     ASSERT_EQ(m.status, +part_pose_t::WAITING) << m.part << ": " << m.status_reason;
   TrackerNode third(cell, readTrackerOptions(cell), saved);
-  for (const part_pose_t& m : third.onPoints(node::encodeCloud(deep, 9))) {
+  for (const part_pose_t& m : feed(third, node::encodeCloud(deep, 9))) {
     EXPECT_NE(m.status, +part_pose_t::WAITING) << m.part << ": " << m.status_reason;
     EXPECT_EQ(std::string(m.status_reason).find("phase 1"), std::string::npos) << m.status_reason;
   }
@@ -247,7 +250,7 @@ TEST(TrackerNode, WithOneCameraSilentTrackingGoesOnWithTheOther) {
     msg.sources = {"RIGHT"};
     msg.source_utimes = {100 + k};
     msg.num_sources = 1;
-    out = node.onPoints(msg);
+    out = feed(node, msg);
     for (const part_pose_t& m : out) EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
   }
   EXPECT_NE(node.stats().last_problem.find("POINTS from RIGHT only"), std::string::npos) << node.stats().last_problem;
@@ -266,21 +269,21 @@ TEST(TrackerNode, BadFramesAreReportedAndTrackingGoesOn) {
 
   point_cloud_t broken = node::encodeCloud(frames[0], 1);
   broken.resolution = 0;  // an invalid header
-  for (const part_pose_t& m : node.onPoints(broken)) {
+  for (const part_pose_t& m : feed(node, broken)) {
     EXPECT_EQ(m.utime, 1);
     EXPECT_EQ(m.status, +part_pose_t::WAITING);  // not started yet: the initial pose
     EXPECT_NE(m.status_reason.find("bad POINTS frame"), std::string::npos) << m.status_reason;
   }
-  for (const part_pose_t& m : node.onPoints(node::encodeCloud(frames[0], 2)))
+  for (const part_pose_t& m : feed(node, node::encodeCloud(frames[0], 2)))
     EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.status_reason;
-  for (const part_pose_t& m : node.onPoints(node::encodeCloud({}, 3))) {
+  for (const part_pose_t& m : feed(node, node::encodeCloud({}, 3))) {
     EXPECT_EQ(m.status, +part_pose_t::LOST);
     EXPECT_NE(m.status_reason.find("empty scan"), std::string::npos) << m.status_reason;
     EXPECT_NE(m.status_reason.find("last good pose kept"), std::string::npos) << m.status_reason;
   }
   broken.utime = 4;
-  for (const part_pose_t& m : node.onPoints(broken)) EXPECT_EQ(m.status, +part_pose_t::LOST);
-  for (const part_pose_t& m : node.onPoints(node::encodeCloud(frames[1], 5))) {
+  for (const part_pose_t& m : feed(node, broken)) EXPECT_EQ(m.status, +part_pose_t::LOST);
+  for (const part_pose_t& m : feed(node, node::encodeCloud(frames[1], 5))) {
     EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.status_reason;
     EXPECT_EQ(m.method, "continuous");
     EXPECT_TRUE(m.template_updated);  // continuous: every frame
@@ -299,20 +302,20 @@ TEST(TrackerNode, FramesOutOfOrderAreRefusedAndAClockGoingBackIsTrackedOn) {
   TrackerNode node(cell, readTrackerOptions(cell));
   const std::vector<Cloud> frames = s.frames(2);
   const std::int64_t t = 10'000'000;
-  ASSERT_EQ(node.onPoints(node::encodeCloud(frames[0], t)).size(), 2u);
+  ASSERT_EQ(feed(node, node::encodeCloud(frames[0], t)).size(), 2u);
   for (const std::int64_t stale : {t, t - 33'000, t - kClockJumpBack}) {
-    EXPECT_TRUE(node.onPoints(node::encodeCloud(frames[1], stale)).empty()) << stale;
+    EXPECT_TRUE(feed(node, node::encodeCloud(frames[1], stale)).empty()) << stale;
     EXPECT_EQ(node.stats().last_problem, "POINTS at utime " + std::to_string(stale) +
                                              ", not newer than the frame tracked last (utime 10000000): reordered, "
                                              "or a second camera proxy publishes POINTS: not tracked");
   }
-  EXPECT_TRUE(node.onPoints(node::encodeCloud(frames[1], -1)).empty());
+  EXPECT_TRUE(feed(node, node::encodeCloud(frames[1], -1)).empty());
   EXPECT_NE(node.stats().last_problem.find("utime -1 us, outside 0 to 2^53 us"), std::string::npos);
   EXPECT_EQ(node.stats().refused_frames, 4);
   EXPECT_EQ(node.stats().clock_restarts, 0);
   const std::int64_t replayed = t - kClockJumpBack - 1;
   for (const std::int64_t u : {replayed, replayed + 33'000}) {
-    const std::vector<part_pose_t> out = node.onPoints(node::encodeCloud(frames[1], u));
+    const std::vector<part_pose_t> out = feed(node, node::encodeCloud(frames[1], u));
     ASSERT_EQ(out.size(), 2u);
     for (const part_pose_t& m : out) {
       EXPECT_EQ(m.utime, u);
@@ -321,6 +324,31 @@ TEST(TrackerNode, FramesOutOfOrderAreRefusedAndAClockGoingBackIsTrackedOn) {
   }
   EXPECT_EQ(node.stats().clock_restarts, 1);
   EXPECT_EQ(node.stats().frames, 7);
+}
+
+// A frame stamped far ahead of the one tracked last and the time since (more than kClockJumpBack)
+// is a bad stamp, refused, unless the next runs with it: the cameras' clock jumped forward, and
+// tracking goes on from there (counted in clock_restarts, the jump not told to the filters).
+TEST(TrackerNode, AFrameStampedFarAheadIsRefusedUnlessTheNextRunsWithIt) {
+  const TwoParts s;
+  const node::CellConfig cell = node::loadCellFromString(s.yaml());
+  TrackerNode node(cell, readTrackerOptions(cell));
+  const std::vector<Cloud> frames = s.frames(2);
+  const std::int64_t t = 10'000'000, ahead = t + 60'000'000;
+  ASSERT_EQ(node.onPoints(node::encodeCloud(frames[0], t), t).size(), 2u);
+  EXPECT_TRUE(node.onPoints(node::encodeCloud(frames[1], ahead), t + 33'333).empty());
+  EXPECT_EQ(node.stats().last_problem,
+            "POINTS at utime 70000000, 60.0 s ahead of the frame tracked last (utime 10000000) and the time since: a "
+            "bad stamp, unless the next frame runs with it (the cameras' clock jumped forward): not tracked");
+  // Seconds later by both clocks: not ahead, whatever the silence.
+  EXPECT_EQ(node.onPoints(node::encodeCloud(frames[1], t + 5'000'000), t + 5'000'000).size(), 2u);
+  EXPECT_TRUE(node.onPoints(node::encodeCloud(frames[0], ahead), t + 5'033'333).empty());
+  const std::vector<part_pose_t> out = node.onPoints(node::encodeCloud(frames[1], ahead + 33'333), t + 5'066'666);
+  ASSERT_EQ(out.size(), 2u);
+  for (const part_pose_t& m : out) EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
+  EXPECT_EQ(node.stats().refused_frames, 2);
+  EXPECT_EQ(node.stats().clock_restarts, 1);
+  EXPECT_NEAR(node.stats().max_gap_periods, 150.0, 1e-3);  // the 5 s silence; the jump is not told
 }
 
 // The time between two frames tracked, in the cameras' frame periods (30 Hz here), is told to
@@ -332,15 +360,15 @@ TEST(TrackerNode, TheTimeBetweenFramesIsToldInFramePeriods) {
   TrackerNode node(cell, readTrackerOptions(cell));
   const std::vector<Cloud> frames = s.frames(2);
   const std::int64_t t = 10'000'000;
-  node.onPoints(node::encodeCloud(frames[0], t));
+  feed(node, node::encodeCloud(frames[0], t));
   EXPECT_EQ(node.stats().max_gap_periods, 0.0);
-  node.onPoints(node::encodeCloud(frames[1], t + 33'333));
+  feed(node, node::encodeCloud(frames[1], t + 33'333));
   EXPECT_NEAR(node.stats().max_gap_periods, 1.0, 1e-3);
-  node.onPoints(node::encodeCloud(frames[1], t + 33'333));  // not newer: refused
-  node.onPoints(node::encodeCloud(frames[0], t + 2'033'333));
+  feed(node, node::encodeCloud(frames[1], t + 33'333));  // not newer: refused
+  feed(node, node::encodeCloud(frames[0], t + 2'033'333));
   EXPECT_NEAR(node.stats().max_gap_periods, 60.0, 1e-3);
-  node.onPoints(node::encodeCloud(frames[0], t - 5'000'000));  // the clock went back
-  node.onPoints(node::encodeCloud(frames[1], t - 5'000'000 + 33'333));
+  feed(node, node::encodeCloud(frames[0], t - 5'000'000));  // the clock went back
+  feed(node, node::encodeCloud(frames[1], t - 5'000'000 + 33'333));
   EXPECT_NEAR(node.stats().max_gap_periods, 60.0, 1e-3);
   EXPECT_EQ(node.stats().clock_restarts, 1);
   EXPECT_EQ(node.stats().refused_frames, 1);

@@ -14,7 +14,7 @@
 // proxy, where a frame's time enters the cell, refuses such a frame unless the same camera's frame
 // before it was refused so and this one runs with it, so one bad stamp never reaches the
 // processes downstream nor makes them start over. The planner does the same with its PART_POSE
-// and PROGRESS, so a stray message stamped ahead does not either.
+// and PROGRESS, and the tracker with POINTS, so a stray message stamped ahead does not either.
 #pragma once
 
 #include <algorithm>
