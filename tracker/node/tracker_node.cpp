@@ -175,13 +175,14 @@ std::string TrackerNode::refusedStamp(std::int64_t utime, std::int64_t arrival) 
   if (!utimeInRange(utime)) return utimeOutOfRange(utime);
   if (newest_utime_ >= 0) {
     if (const std::int64_t ahead = runsAhead(newest_utime_, newest_arrival_, utime, arrival); ahead > kClockJumpBack) {
-      char seconds[32];
-      std::snprintf(seconds, sizeof seconds, "%.1f", static_cast<double>(ahead) * 1e-6);
-      if (!ahead_.confirms(utime, arrival))
+      if (!ahead_.confirms(utime, arrival)) {
+        char seconds[32];
+        std::snprintf(seconds, sizeof seconds, "%.1f", static_cast<double>(ahead) * 1e-6);
         return "utime " + std::to_string(utime) + ", " + seconds + " s ahead of the frame tracked last (utime " +
                std::to_string(newest_utime_) +
                ") and the time since: a bad stamp, unless the next frame runs with it (the cameras' clock jumped "
                "forward)";
+      }
       ++stats_.clock_restarts;  // the cameras' clock jumped forward: tracked on from the last poses
       tracked_utime_ = -1;      // no time to tell the filters
     } else {

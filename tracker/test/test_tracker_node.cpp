@@ -293,15 +293,20 @@ TEST(TrackerNode, BadFramesAreReportedAndTrackingGoesOn) {
   EXPECT_GT(node.stats().frame_ms_p50, 0.0);
 }
 
+// A node on the two parts' cell and two frames to stamp: the tests of POINTS' utimes.
+class TrackerNodeStamps : public ::testing::Test {
+ protected:
+  const TwoParts s;
+  const node::CellConfig cell = node::loadCellFromString(s.yaml());
+  TrackerNode node{cell, readTrackerOptions(cell)};
+  const std::vector<Cloud> frames = s.frames(2);
+  static constexpr std::int64_t t = 10'000'000;  ///< us, the first frame's utime
+};
+
 // A frame not newer than the one tracked last (a reordered packet, a second camera proxy) is not
 // tracked, nor one stamped out of range: tracking it would step the parts back in time. One more
 // than kClockJumpBack behind is the clock going back (a log played again): tracked on.
-TEST(TrackerNode, FramesOutOfOrderAreRefusedAndAClockGoingBackIsTrackedOn) {
-  const TwoParts s;
-  const node::CellConfig cell = node::loadCellFromString(s.yaml());
-  TrackerNode node(cell, readTrackerOptions(cell));
-  const std::vector<Cloud> frames = s.frames(2);
-  const std::int64_t t = 10'000'000;
+TEST_F(TrackerNodeStamps, FramesOutOfOrderAreRefusedAndAClockGoingBackIsTrackedOn) {
   ASSERT_EQ(feed(node, node::encodeCloud(frames[0], t)).size(), 2u);
   for (const std::int64_t stale : {t, t - 33'000, t - kClockJumpBack}) {
     EXPECT_TRUE(feed(node, node::encodeCloud(frames[1], stale)).empty()) << stale;
@@ -329,12 +334,8 @@ TEST(TrackerNode, FramesOutOfOrderAreRefusedAndAClockGoingBackIsTrackedOn) {
 // A frame stamped far ahead of the one tracked last and the time since (more than kClockJumpBack)
 // is a bad stamp, refused, unless the next runs with it: the cameras' clock jumped forward, and
 // tracking goes on from there (counted in clock_restarts, the jump not told to the filters).
-TEST(TrackerNode, AFrameStampedFarAheadIsRefusedUnlessTheNextRunsWithIt) {
-  const TwoParts s;
-  const node::CellConfig cell = node::loadCellFromString(s.yaml());
-  TrackerNode node(cell, readTrackerOptions(cell));
-  const std::vector<Cloud> frames = s.frames(2);
-  const std::int64_t t = 10'000'000, ahead = t + 60'000'000;
+TEST_F(TrackerNodeStamps, AFrameStampedFarAheadIsRefusedUnlessTheNextRunsWithIt) {
+  const std::int64_t ahead = t + 60'000'000;
   ASSERT_EQ(node.onPoints(node::encodeCloud(frames[0], t), t).size(), 2u);
   EXPECT_TRUE(node.onPoints(node::encodeCloud(frames[1], ahead), t + 33'333).empty());
   EXPECT_EQ(node.stats().last_problem,
@@ -354,12 +355,7 @@ TEST(TrackerNode, AFrameStampedFarAheadIsRefusedUnlessTheNextRunsWithIt) {
 // The time between two frames tracked, in the cameras' frame periods (30 Hz here), is told to
 // the parts' filters (PartTracker::elapse) and its longest is in the stats. A frame refused or
 // one after the clock went back tells none.
-TEST(TrackerNode, TheTimeBetweenFramesIsToldInFramePeriods) {
-  const TwoParts s;
-  const node::CellConfig cell = node::loadCellFromString(s.yaml());
-  TrackerNode node(cell, readTrackerOptions(cell));
-  const std::vector<Cloud> frames = s.frames(2);
-  const std::int64_t t = 10'000'000;
+TEST_F(TrackerNodeStamps, TheTimeBetweenFramesIsToldInFramePeriods) {
   feed(node, node::encodeCloud(frames[0], t));
   EXPECT_EQ(node.stats().max_gap_periods, 0.0);
   feed(node, node::encodeCloud(frames[1], t + 33'333));
