@@ -135,15 +135,16 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
   const Vector6d difference = deviation(free.T_target_source, filtered.T_target_source);
   fits_disagreed_ =
       !(difference.head<3>().norm() * 180 / M_PI <= f.reset_deg / 2 && difference.tail<3>().norm() <= f.reset_m);
-  disagreements_.push_back({difference, free.inlier_ratio - filtered.inlier_ratio});
+  disagreements_.push_back({difference, free.inlier_ratio - filtered.inlier_ratio, unchecked_periods_});
   if (disagreements_.size() > static_cast<std::size_t>(f.reset_frames)) disagreements_.pop_front();
   if (disagreements_.size() < static_cast<std::size_t>(f.reset_frames)) return false;
   const double n = static_cast<double>(disagreements_.size());
   Vector6d mean = Vector6d::Zero();
-  double inlier_gain = 0;
+  double inlier_gain = 0, periods = 0;
   for (const Disagreement& d : disagreements_) {
     mean += d.difference / n;
     inlier_gain += d.inlier_gain / n;
+    periods += d.periods;
   }
   if (inlier_gain < -f.reset_inlier_margin) return false;
 
@@ -153,7 +154,7 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
   vague << Eigen::Vector3d::Constant(1 / (M_PI * M_PI)), Eigen::Vector3d::Constant(1.0);
   const Matrix6d uncertainty = prior_information.inverse() + (seen + Matrix6d(vague.asDiagonal())).inverse();
   const double chi2 = n * mean.dot(uncertainty.ldlt().solve(mean));
-  const Vector6d motion = static_cast<double>(f.reset_frames * f.reset_frames) * processVariance();
+  const Vector6d motion = periods * periods * processVariance();  // over the periods the checks span
   const Matrix6d loose = motion.cwiseInverse().asDiagonal();
   const Eigen::LDLT<Matrix6d> ask(loose + seen);
   const Vector6d asked_mean = ask.solve(seen * mean);
@@ -244,16 +245,23 @@ bool PartTracker::refit(const SightImages& images, const Surface& scan, double m
   return true;
 }
 
-void PartTracker::updateMotionState() {
-  // Still or moving: how far the part went over the last moving_frames frames. A turn opens
-  // the turn noise; a slide opens it from the threshold to moving_full times it.
+void PartTracker::updateMotionState(double periods) {
+  // Still or moving: how far the part went over the last moving_frames frame periods (the poses
+  // tracked since, and the one before them). A turn opens the turn noise; a slide opens it from
+  // the threshold to moving_full times it.
   const FilterConfig& f = config_.filter;
-  recent_.push_back(T_cell_part_);
-  if (recent_.size() > static_cast<std::size_t>(f.moving_frames) + 1) recent_.pop_front();
-  const double slide = translationDistance(recent_.front(), recent_.back());
-  const bool turned = rotationDistanceDeg(recent_.front(), recent_.back()) > f.moving_rotation_deg;
+  recent_.push_back({T_cell_part_, periods});
+  double span = 0;  // periods from the first pose kept to the last
+  for (std::size_t k = 1; k < recent_.size(); ++k) span += recent_[k].periods;
+  while (recent_.size() > 1 && span - recent_[1].periods >= f.moving_frames) {
+    span -= recent_[1].periods;
+    recent_.pop_front();
+  }
+  const Pose& from = recent_.front().T_cell_part;
+  const double slide = translationDistance(from, T_cell_part_);
+  const bool turned = rotationDistanceDeg(from, T_cell_part_) > f.moving_rotation_deg;
   moving_ = turned || slide > f.moving_translation;
-  falling_ = f.fall_tilt_deg > 0 && recent_.front().translation().z() - recent_.back().translation().z() > f.fall_sink;
+  falling_ = f.fall_tilt_deg > 0 && from.translation().z() - T_cell_part_.translation().z() > f.fall_sink;
   const double full = f.moving_full * f.moving_translation;
   turn_open_ = !moving_                  ? 0
                : turned || slide >= full ? 1
@@ -281,6 +289,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (!started_) T_cell_part_init_ = T_cell_part_;  // the same pose until Phase 1 ends
   predicted_motion_ = Pose::Identity();
   periods_ += next_periods_;  // the filter's process noise covers the time since its last fit
+  unchecked_periods_ += next_periods_;
   next_periods_ = 1;
   TrackResult r;
   r.T_cell_part = T_cell_part_;
@@ -315,7 +324,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     const double eta = estimateEta(T_cell_part_init_, crop_, &why);
     r.timing.progress_ms = msSince(t0);
     if (std::isnan(eta) || eta <= config_.eta1) {
-      periods_ = 0;  // the filter starts with the first fit, from the initial pose's uncertainty
+      periods_ = unchecked_periods_ = 0;  // the filter starts with the first fit, from the initial pose's uncertainty
       r.status = TrackStatus::kWaiting;
       if (!std::isnan(eta)) eta_ = r.eta = eta;
       r.reason = std::isnan(eta) ? "phase 1: " + why
@@ -407,6 +416,7 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     const RegistrationResult free = registerSurfaces({visible_points_, visible_normals_, model_index}, scan_surface,
                                                      T_cell_part_, max_distance, config_.icp, nullptr, &first);
     reset = restartFilter(reg, free, prior.information);
+    unchecked_periods_ = 0;
     r.checked = true;
     r.reset = reset;
     r.timing.check_ms = msSince(t0);
@@ -414,8 +424,8 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   if (!reset) T_cell_part_ = reg.T_target_source;
   if (filter) {
     if (!reset) information_ = prior.information + reg.information / config_.filter.data_inflation;
+    updateMotionState(periods_);
     periods_ = 0;
-    updateMotionState();
   }
   r.moving = moving_;
   r.falling = falling_;

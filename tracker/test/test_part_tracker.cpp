@@ -429,6 +429,34 @@ TEST(PartTracker, APushedCupTrackedEveryThirdFrameIsFollowed) {
   }
 }
 
+// The motion test judges a speed: the pose against the one tracked moving_frames periods before,
+// however many frames were tracked between. A cube creeping 1 mm per 10 periods (half of
+// moving_translation) is still, one creeping 3 mm is moving, tracked every frame or every third
+// (told so). Counted from frame 45 on, after the initial pose's 3 mm error is gone.
+TEST(PartTracker, TheMotionTestJudgesSpeedNotFramesTracked) {
+  for (const double step : {0.0001, 0.0003}) {
+    const Sequence s = makeSequence("cube", 0.6, 120, step, 0.0, 71);
+    for (const int stride : {1, 3}) {
+      PartTracker tracker("cube", s.mesh, s.T_init, 0.01, defaults());
+      int judged = 0, moving = 0;
+      for (std::size_t k = 0; k < s.frames.size(); k += stride) {
+        if (k > 0) tracker.elapse(stride);
+        const TrackResult r = tracker.track(s.frames[k]);
+        ASSERT_NE(r.status, TrackStatus::kLost) << "frame " << k << ": " << r.reason;
+        if (k < 45) continue;
+        ++judged;
+        moving += r.moving ? 1 : 0;
+      }
+      std::printf("creeping %.1f mm a frame, every %d%s frame: %d of %d frames moving\n", step * 1000, stride,
+                  stride == 1 ? "st" : "rd", moving, judged);
+      if (step < 0.0002)
+        EXPECT_LE(moving, judged / 10);
+      else
+        EXPECT_GE(moving, judged * 9 / 10);
+    }
+  }
+}
+
 // The default cell's mid-run rise (the pipe's pose rose 1 cm, then turned 13-14 deg): the vacuum
 // loop lowers the powder in a ring round the still pipe, where the Eq. 2 band lies, while the
 // powder over its horizontal leg stays. The leg's top face, a few mm under that powder, then

@@ -89,7 +89,7 @@ struct FilterConfig {
   double still_turn = 0.01;    ///< a still part's turn noise: this fraction of q_yaw_deg and q_tilt_deg
   double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames frames...
   double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
-  int moving_frames = 10;             ///< frames (1/3 s at 30 fps)
+  int moving_frames = 10;             ///< frame periods (1/3 s at 30 fps), however many were tracked
   double fall_sink = 0.003;  ///< m: a part whose origin sank more than this over the last moving_frames frames is
                              ///< falling (it topples)...
   double fall_tilt_deg = 0;  ///< ...and its tip noise is this, deg per frame; 0 = no such gate (the default: a
@@ -101,7 +101,7 @@ struct FilterConfig {
   /// The disagreement check: each frame (see check_every) the scan is also registered without
   /// the filter. Over its last reset_frames runs, the mean difference of the two fits is tested
   /// against both fits' uncertainties (reset_chi2) and by what it asks of the pose in the ways a pushed part
-  /// moves (turns about the vertical and slides, reset_frames frames of process noise: beyond
+  /// moves (turns about the vertical and slides, the process noise of the periods those runs span: beyond
   /// reset_deg or reset_m). Both beyond, and the free fits matching about as many template
   /// points as the filter's (reset_inlier_margin): the filter held a moving part still, and starts
   /// again from its pose moved as asked. reset_frames 0 = no check.

@@ -138,7 +138,12 @@ class PartTracker {
   int template_version_ = 0;
   /// The filter's information about T_i (FilterConfig; PosePrior's coordinates).
   Matrix6d information_ = Matrix6d::Zero();
-  std::deque<Pose> recent_;  ///< the last poses tracked (the filter's motion test)
+  /// A pose tracked, and the frame periods since the one tracked before it.
+  struct Tracked {
+    Pose T_cell_part;
+    double periods;
+  };
+  std::deque<Tracked> recent_;  ///< the poses tracked over the last moving_frames periods (the motion test)
   bool moving_ = false;
   bool falling_ = false;  ///< the origin sank more than FilterConfig::fall_sink over the last moving_frames frames
   double turn_open_ = 0;  ///< 0 (still) .. 1 (pushed): how far the turn noise is open (FilterConfig::moving_full)
@@ -147,14 +152,16 @@ class PartTracker {
   struct Disagreement {
     Vector6d difference;
     double inlier_gain;
+    double periods;  ///< frame periods since the check before it
   };
   std::deque<Disagreement> disagreements_;
-  int unchecked_frames_ = 0;    ///< frames since the disagreement check last ran
-  bool fits_disagreed_ = true;  ///< the last check's two fits differed beyond reset_deg / 2 or reset_m, or its
-                                ///< free fit was doubtful
+  int unchecked_frames_ = 0;      ///< frames since the disagreement check last ran
+  double unchecked_periods_ = 0;  ///< frame periods since the disagreement check last ran
+  bool fits_disagreed_ = true;    ///< the last check's two fits differed beyond reset_deg / 2 or reset_m, or its
+                                  ///< free fit was doubtful
   void resetInformation();
-  void updateMotionState();          ///< moving_, falling_ and turn_open_ from the poses tracked last
-  Vector6d processVariance() const;  ///< a pushed part's, per frame (PosePrior's coordinates)
+  void updateMotionState(double periods);  ///< moving_, falling_, turn_open_; periods since the last fit
+  Vector6d processVariance() const;        ///< a pushed part's, per frame (PosePrior's coordinates)
   bool restartFilter(const RegistrationResult& filtered, const RegistrationResult& free,
                      const Matrix6d& prior_information);
 
