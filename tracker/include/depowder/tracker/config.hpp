@@ -75,7 +75,7 @@ struct StatusConfig {
 /// constrain well follows the scan at once. The process noise is set per cell-frame direction: a
 /// part in powder slides and turns about the vertical, it seldom tips, so a roll that the scan
 /// cannot tell from a slide is resolved as the slide. A part that has not moved over the last
-/// moving_frames frames is still: its turns' process noise shrinks by still_turn, so a still
+/// moving_frames frame periods is still: its turns' process noise shrinks by still_turn, so a still
 /// tube's unseen spin does not wander with the noise; a part that moved only a little more is
 /// given a little more (moving_full): a still part whose fit was shifted by the nozzle is not
 /// handed a pushed part's turns.
@@ -87,10 +87,10 @@ struct FilterConfig {
   double q_xy = 0.001;         ///< m per frame: of a horizontal slide
   double q_z = 0.0002;         ///< m per frame: of a rise or a sink
   double still_turn = 0.01;    ///< a still part's turn noise: this fraction of q_yaw_deg and q_tilt_deg
-  double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames frames...
+  double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames periods...
   double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
   int moving_frames = 10;             ///< frame periods (1/3 s at 30 fps), however many were tracked
-  double fall_sink = 0.003;  ///< m: a part whose origin sank more than this over the last moving_frames frames is
+  double fall_sink = 0.003;  ///< m: a part whose origin sank more than this over the last moving_frames periods is
                              ///< falling (it topples)...
   double fall_tilt_deg = 0;  ///< ...and its tip noise is this, deg per frame; 0 = no such gate (the default: a
                              ///< lagging estimate sinks too, tracker/README.md); a cell whose parts topple: 1

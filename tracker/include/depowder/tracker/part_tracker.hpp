@@ -145,7 +145,7 @@ class PartTracker {
   };
   std::deque<Tracked> recent_;  ///< the poses tracked over the last moving_frames periods (the motion test)
   bool moving_ = false;
-  bool falling_ = false;  ///< the origin sank more than FilterConfig::fall_sink over the last moving_frames frames
+  bool falling_ = false;  ///< the origin sank more than FilterConfig::fall_sink over the last moving_frames periods
   double turn_open_ = 0;  ///< 0 (still) .. 1 (pushed): how far the turn noise is open (FilterConfig::moving_full)
   /// The fit without the filter against the filter's, the last frames: its pose less the filter's, and its
   /// inlier ratio less the filter's.
