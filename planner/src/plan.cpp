@@ -52,8 +52,9 @@ std::string describe(const TransitionResult& t) {
   return buf;
 }
 
-/// If the arm is in collision now because a part moved into the nozzle's margin (the paper's
-/// toppling pipe), the way out: straight away from that part, horizontally, every edge_step,
+/// If the arm is in collision now because a part moved into the margins of the nozzle (the
+/// paper's toppling pipe), of the end effector's body or of a link, the way out: straight away
+/// from that part, horizontally, every edge_step,
 /// while nothing else is hit and the nozzle's distance to the part never shrinks, until the
 /// arm is clear; if that way is blocked (another part, the arm's reach, a part that wraps
 /// round the nozzle, or the nozzle right above the part), straight up under the same checks.
@@ -63,11 +64,12 @@ std::optional<robot::Joints> escape(const CollisionWorld& world, const robot::Jo
                                     std::string& why) {
   const Contact contact = world.checkArm(q_now);
   if (!contact) return q_now;
-  const std::string prefix = "nozzle-part:";
+  const std::string infix = "-part:";  // "nozzle-part:NAME", "effector-part:NAME", ...
+  const std::size_t at = contact.what.find(infix);
   int part = -1;
-  if (contact.what.rfind(prefix, 0) == 0)
+  if (at != std::string::npos)
     for (std::size_t i = 0; i < world.numParts(); ++i)
-      if (world.part(i).name() == contact.what.substr(prefix.size())) part = static_cast<int>(i);
+      if (world.part(i).name() == contact.what.substr(at + infix.size())) part = static_cast<int>(i);
   if (part < 0 || world.checkArm(q_now, CheckOptions(false, true, part))) {
     why = "the arm is in collision (" + contact.what + ")";
     return std::nullopt;

@@ -66,6 +66,15 @@ class CellTest : public ::testing::Test {
     r.q = plan.waypoints[std::min<std::size_t>(index, plan.waypoints.size() - 1)].q;
     EXPECT_TRUE(planner->onRobot(r).ok());
   }
+  /// The robot reports the nozzle pointing down with its tip at `tip` (no plan followed).
+  void robotAtTip(const Point& tip) {
+    const auto q = robot::inverseNozzle(*arm, nozzleDown(*arm, tip), arm->q_home);
+    ASSERT_TRUE(q);
+    RobotInput r;
+    r.utime = utime;
+    r.q = *q;
+    EXPECT_TRUE(planner->onRobot(r).ok());
+  }
   CheckReport check(const Plan& plan, const Pose& left, const Pose& right) const {
     return checkWaypoints(plan.waypoints, {{"left", cube, left}, {"right", cube, right}}, Box{}, *arm, config.nozzle);
   }
@@ -316,6 +325,29 @@ TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFrom) {
   EXPECT_TRUE(c.clean()) << c.first;
 }
 
+TEST_F(CellTest, PartAgainstTheEffectorBodyIsEscapedFrom) {
+  // A part knocked up against the end effector's body (28.6 mm radius, from 12.1 cm above the
+  // tip), clear of the thinner nozzle tube: its face 3 cm from the tool's axis is outside the
+  // tube's 2 cm of radius and margins and inside the body's 4.36 cm. The nozzle backs away
+  // from it as from a part in its own margins.
+  const Point tip(-0.13, -0.06, 0.06);
+  const double face = 0.03;
+  ASSERT_GT(face, config.nozzle.radius + config.nozzle.margin + config.collision.tracking_margin);
+  ASSERT_LT(face, 0.0286 + config.collision.arm_margin + config.collision.tracking_margin);
+  robotAtTip(tip);
+  const Pose raised = makePoseRpy({tip.x() + face + 0.03, tip.y(), tip.z() + 0.121 + 0.035}, 0, 0, 0);
+  frame("left", raised, Phase::kAirBlast, raised.translation().z() - 0.03);
+  auto p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
+  EXPECT_NE(p->reason.find("escaped"), std::string::npos) << p->reason;
+  // The first move goes away from the part (-x), one edge_step; nothing in the plan touches it.
+  const Point first = p->waypoints.front().T_cell_nozzle.translation();
+  EXPECT_NEAR(first.x() - tip.x(), -config.collision.edge_step, 1e-6);
+  EXPECT_NEAR((first - tip).norm(), config.collision.edge_step, 1e-6);
+  const CheckReport c = check(*p, raised, T_right);
+  EXPECT_TRUE(c.clean()) << c.first;
+}
+
 TEST_F(CellTest, PartRisingUnderTheNozzleIsEscapedUpwards) {
   // The nozzle hovers right above the cube's centre when the cube rises into its margins (the
   // powder under it gave way upwards): there is no horizontal "away", so the nozzle lifts.
@@ -323,12 +355,7 @@ TEST_F(CellTest, PartRisingUnderTheNozzleIsEscapedUpwards) {
   const double gap = 0.004;  // tip above the top face: inside the 2.5 + 5 mm margins
   ASSERT_LT(gap, config.nozzle.margin + config.collision.tracking_margin);
   const Point tip(T_left.translation().x(), T_left.translation().y(), top + gap);
-  const auto q = robot::inverseNozzle(*arm, nozzleDown(*arm, tip), arm->q_home);
-  ASSERT_TRUE(q);
-  RobotInput r;
-  r.utime = utime;
-  r.q = *q;
-  ASSERT_TRUE(planner->onRobot(r).ok());
+  robotAtTip(tip);
   frame("left", T_left, Phase::kAirBlast, 0.0);
   auto p = planner->step();
   ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
