@@ -61,14 +61,19 @@ CameraRunResult runCamera(const CameraRunConfig& config) {
   std::thread publisher([&] {
     node::Bus bus("", config.prefix);
     const auto t0 = Clock::now() + std::chrono::milliseconds(100);
+    const std::int64_t t0_utime = node::nowUtime() + 100000;
     for (int step = 0; step < config.steps; ++step) {
-      std::this_thread::sleep_until(
-          t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(step / config.rate_hz)));
-      // A step's frames are stamped as sent, but at most 1 ms a camera after the first: the
-      // cameras capture together, and a frame sent late because publishing the one before it
-      // (a 150 kB encode) was slow, as in a sanitized build under load, fell outside
-      // match_tolerance and split its time step in two.
-      const std::int64_t captured = node::nowUtime();
+      const double at = step / config.rate_hz;
+      std::this_thread::sleep_until(t0 +
+                                    std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(at)));
+      // A step's frames are stamped at their capture time, every 1/rate, as a camera stamps
+      // them, however late they are sent, and 1 ms a camera apart: the cameras capture together.
+      // Stamped as sent, a frame sent late because publishing the one before it (a 150 kB
+      // encode) was slow, as in a sanitized build under load, fell outside match_tolerance and
+      // split its time step in two; and a step sent late came within match_tolerance of the
+      // next, which then counted as late for the step published before it (a CI run: 74 of 75
+      // steps out).
+      const std::int64_t captured = t0_utime + static_cast<std::int64_t>(std::llround(at * 1e6));
       for (std::size_t c = 0; c < config.cameras.size(); ++c) {
         depth_image_t& msg = msgs[c][static_cast<std::size_t>(step) % msgs[c].size()];
         msg.frame = step;
