@@ -139,7 +139,10 @@ tracker_killed)
   sleep 10
   tracker=$(ip netns pids "$T-h1" | xargs -r ps -o pid=,comm= -p | awk '$2 == "depowder-tracke" || $2 == "depowder-tracker" {print $1}')
   [ -n "$tracker" ] || { echo "FAILED: no tracker process to kill"; exit 1; }
-  at=$(now); kill -KILL $tracker
+  # Stamped after the kill: stamped before it, a loaded machine (the cell at SCHED_FIFO, this
+  # shell not) once sent the signal more than a frame later, and the old tracker's last pose
+  # passed for the restarted one's first (a CI run: PART_POSE gap 0.033 s, the arm "never at rest").
+  kill -KILL $tracker; at=$(now)
   echo "killed depowder-tracker (pid $tracker)"
   wait_run ;;
 link_cut)
