@@ -97,7 +97,7 @@ struct CollisionWorld::Impl {
         if (states[i] == PartState::kIgnored || static_cast<int>(i) == o.ignore_part) continue;
         const bool lost = states[i] == PartState::kLost && o.lost_margin;
         const FclObject grown = makeObject(lost ? c.lost : c.tracked, T);
-        if (collide(grown, part_objects[i])) return {true, c.name + "-part:" + parts[i]->name()};
+        if (collide(grown, part_objects[i])) return {true, c.name + "-part:" + parts[i]->name(), static_cast<int>(i)};
       }
     }
     const Pose T_cell_nozzle = arm->T_cell_base * links[6] * arm->T_flange_nozzle;
@@ -123,7 +123,7 @@ struct CollisionWorld::Impl {
     for (std::size_t i = 0; i < parts.size(); ++i) {
       if (states[i] == PartState::kIgnored || static_cast<int>(i) == o.ignore_part) continue;
       const FclObject& n = states[i] == PartState::kLost && o.lost_margin ? lost : tracked;
-      if (collide(n, part_objects[i])) return {true, "nozzle-part:" + parts[i]->name()};
+      if (collide(n, part_objects[i])) return {true, "nozzle-part:" + parts[i]->name(), static_cast<int>(i)};
     }
     return {};
   }

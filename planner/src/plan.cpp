@@ -64,12 +64,7 @@ std::optional<robot::Joints> escape(const CollisionWorld& world, const robot::Jo
                                     std::string& why) {
   const Contact contact = world.checkArm(q_now);
   if (!contact) return q_now;
-  const std::string infix = "-part:";  // "nozzle-part:NAME", "effector-part:NAME", ...
-  const std::size_t at = contact.what.find(infix);
-  int part = -1;
-  if (at != std::string::npos)
-    for (std::size_t i = 0; i < world.numParts(); ++i)
-      if (world.part(i).name() == contact.what.substr(at + infix.size())) part = static_cast<int>(i);
+  const int part = contact.part;  // the nozzle, the effector's body or a link against a part
   if (part < 0 || world.checkArm(q_now, CheckOptions(false, true, part))) {
     why = "the arm is in collision (" + contact.what + ")";
     return std::nullopt;

@@ -66,14 +66,15 @@ class CellTest : public ::testing::Test {
     r.q = plan.waypoints[std::min<std::size_t>(index, plan.waypoints.size() - 1)].q;
     EXPECT_TRUE(planner->onRobot(r).ok());
   }
-  /// The robot reports the nozzle pointing down with its tip at `tip` (no plan followed).
+  /// The robot reports the nozzle pointing down with its tip at `tip` (no plan followed); callers
+  /// wrap it in ASSERT_NO_FATAL_FAILURE.
   void robotAtTip(const Point& tip) {
     const auto q = robot::inverseNozzle(*arm, nozzleDown(*arm, tip), arm->q_home);
     ASSERT_TRUE(q);
     RobotInput r;
     r.utime = utime;
     r.q = *q;
-    EXPECT_TRUE(planner->onRobot(r).ok());
+    ASSERT_TRUE(planner->onRobot(r).ok());
   }
   CheckReport check(const Plan& plan, const Pose& left, const Pose& right) const {
     return checkWaypoints(plan.waypoints, {{"left", cube, left}, {"right", cube, right}}, Box{}, *arm, config.nozzle);
@@ -334,7 +335,7 @@ TEST_F(CellTest, PartAgainstTheEffectorBodyIsEscapedFrom) {
   const double face = 0.03;
   ASSERT_GT(face, config.nozzle.radius + config.nozzle.margin + config.collision.tracking_margin);
   ASSERT_LT(face, 0.0286 + config.collision.arm_margin + config.collision.tracking_margin);
-  robotAtTip(tip);
+  ASSERT_NO_FATAL_FAILURE(robotAtTip(tip));
   const Pose raised = makePoseRpy({tip.x() + face + 0.03, tip.y(), tip.z() + 0.121 + 0.035}, 0, 0, 0);
   frame("left", raised, Phase::kAirBlast, raised.translation().z() - 0.03);
   auto p = planner->step();
@@ -355,7 +356,7 @@ TEST_F(CellTest, PartRisingUnderTheNozzleIsEscapedUpwards) {
   const double gap = 0.004;  // tip above the top face: inside the 2.5 + 5 mm margins
   ASSERT_LT(gap, config.nozzle.margin + config.collision.tracking_margin);
   const Point tip(T_left.translation().x(), T_left.translation().y(), top + gap);
-  robotAtTip(tip);
+  ASSERT_NO_FATAL_FAILURE(robotAtTip(tip));
   frame("left", T_left, Phase::kAirBlast, 0.0);
   auto p = planner->step();
   ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");

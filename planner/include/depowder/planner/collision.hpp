@@ -50,6 +50,7 @@ enum class PartState {
 struct Contact {
   bool collision = false;
   std::string what;  ///< e.g. "nozzle-part:cube", "link3-wall:+x"; "" when free
+  int part = -1;     ///< the part's index when the arm or nozzle touches a part
   explicit operator bool() const { return collision; }
 };
 
