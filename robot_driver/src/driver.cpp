@@ -150,7 +150,8 @@ bool Driver::enableFromCurrentPosition() {
   }
   generator_.reset(q);
   limiter_.reset(q);
-  was_inside_ = true;
+  // An arm found outside the box (moved by hand) may be led back in; only leaving it stops.
+  was_inside_ = cfg_.safety.workspace.contains(forwardNozzle(cfg_.arm, q).translation(), cfg_.safety.workspace_margin);
   safety_stopped_ = false;
   {
     std::lock_guard<PiMutex> lock(mutex_);
@@ -198,7 +199,9 @@ bool Driver::enableFromCurrentPosition() {
     if (have_plan_) {
       resume = current_plan_;
       have = true;
-      from = incoming_ ? 0 : std::max(0, status_.waypoint_index);
+      // The status names the plan the arm ran last: a newer one (taken, or still braking into
+      // it) starts from its beginning.
+      from = incoming_ || status_.plan_id != resume.id ? 0 : std::max(0, status_.waypoint_index);
       incoming_.reset();
     }
   }
@@ -221,7 +224,11 @@ bool Driver::connectAndEnable() {
   next_connect_ns_ = now + static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9);
   const SessionResult r = session_.open();
   if (!r.ok) {
-    setMode(DriverMode::Disconnected, "controller unreachable: " + r.error);
+    // Unreachable, or reached and refusing (a wrong robot or I/O name in the cell file).
+    if (r.connectionLost())
+      setMode(DriverMode::Disconnected, "controller unreachable: " + r.error);
+    else
+      setMode(DriverMode::Fault, "controller refused the session: " + r.error);
     return false;
   }
   if (connected_once_) {
@@ -271,7 +278,8 @@ bool Driver::cycle() {
       status_.plan_id = -1;
       status_.waypoint_index = -1;
     }
-    if (!enableFromCurrentPosition()) return false;
+    // A new ESTOP while re-enabling leaves it EStopped (enableFromCurrentPosition said so).
+    if (!enableFromCurrentPosition() || estop_latched_) return false;
     setMode(DriverMode::Idle, "ESTOP reset");
     return false;
   }
@@ -334,11 +342,10 @@ bool Driver::slaveCycle() {
     status_.reason = std::string("controlled stop: ") + verdict.reason;
   }
 
-  // 6. Next command, limited.
+  // 6. Next command, limited. Step 5 of the next cycle checks it against where the last one was.
+  was_inside_ = cfg_.safety.workspace.contains(in.nozzle, cfg_.safety.workspace_margin);
   const TrajectorySample sample = generator_.step();
   const CommandLimiter::Result cmd = limiter_.apply(sample.q);
-  was_inside_ =
-      cfg_.safety.workspace.contains(forwardNozzle(cfg_.arm, cmd.q).translation(), cfg_.safety.workspace_margin);
 
   // 7. Tool, then the slave exchange.
   SessionResult r = session_.setTool(sample.tool);

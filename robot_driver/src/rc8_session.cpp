@@ -92,18 +92,21 @@ SessionResult Rc8Session::open() {
     abort();
     return s;
   }
-  CallResult r = act_.controllerGetVariable(controller_, cfg_.vacuum_variable);
-  if (!r.ok() || !r.handle()) {
-    abort();
-    return SessionResult::from(r);
+  for (auto [name, handle] : {std::pair{&cfg_.vacuum_variable, &vacuum_}, std::pair{&cfg_.air_variable, &air_}}) {
+    const CallResult r = act_.controllerGetVariable(controller_, *name);
+    s = SessionResult::from(r);
+    if (r.ok() && !r.handle()) {
+      s.ok = false;
+      s.status = CallStatus::ProtocolError;
+      s.error = "reply without a handle";
+    }
+    if (!s.ok) {
+      abort();
+      s.error = "Controller_GetVariable(" + *name + "): " + s.error;
+      return s;
+    }
+    *handle = *r.handle();
   }
-  vacuum_ = *r.handle();
-  r = act_.controllerGetVariable(controller_, cfg_.air_variable);
-  if (!r.ok() || !r.handle()) {
-    abort();
-    return SessionResult::from(r);
-  }
-  air_ = *r.handle();
   open_ = true;
   slave_ = false;
   tool_ = -1;
@@ -176,10 +179,19 @@ SessionResult Rc8Session::move(const Joints& target, Joints* measured) {
 SessionResult Rc8Session::setTool(Tool tool, bool force) {
   const int t = static_cast<int>(tool);
   if (!force && t == tool_) return {};
+  // A refused write in slave mode ends this slave session as a refused slvMove does: the cycle's
+  // command was not sent, so the driver starts again from where the arm is (clearError, enable).
+  auto refused = [&](const CallResult& r, const std::string& variable) {
+    if (r.status == CallStatus::ControllerError) slave_ = false;
+    tool_ = -1;
+    SessionResult s = SessionResult::from(r);
+    s.error = "writing the tool output " + variable + ": " + s.error;
+    return s;
+  };
   CallResult r = act_.variablePutValue(vacuum_, Variant::boolean(tool == Tool::kVacuum));
-  if (!r.ok()) return SessionResult::from(r);
+  if (!r.ok()) return refused(r, cfg_.vacuum_variable);
   r = act_.variablePutValue(air_, Variant::boolean(tool == Tool::kAir));
-  if (!r.ok()) return SessionResult::from(r);
+  if (!r.ok()) return refused(r, cfg_.air_variable);
   tool_ = t;
   return {};
 }

@@ -449,6 +449,7 @@ Packet BcapEmulator::handle(const Packet& req, int connection, const PartialRepl
       if (req.args.size() != 2) return error(req, hr::E_INVALIDARG, "expects (handle, value)");
       const auto v = req.args[1].asInt();
       if (!v) return error(req, hr::E_INVALIDARG, "an I/O value must be BOOL or an integer");
+      if (io_refusals_ > 0 && io_refusals_-- > 0) return error(req, hr::E_ACCESSDENIED, "I/O write refused");
       io_[handles_[*h].name] = *v != 0;
       return reply(req, hr::S_OK);
     }

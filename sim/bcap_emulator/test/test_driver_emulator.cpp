@@ -495,3 +495,45 @@ TEST(DriverEmulator, APlanTakenWhileAwayStartsFromWhereTheArmIs) {
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
   EXPECT_LE(rig.maxStepRatio(), 1.0);
 }
+
+// A tool write the controller refuses mid-plan ends the slave session as a refused slvMove does:
+// the driver re-enables from where the arm is and goes on. It once stayed in slave mode and went
+// on computing commands it did not send, and its next slvMove jumped to where they had led.
+TEST(DriverEmulator, ARefusedToolWriteRestartsFromWhereTheArmIs) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  const Eigen::Vector3d last(0.1, 0.0, 0.25);
+  Plan plan = linePlan(1, {{-0.1, 0.0, 0.25}, {0.0, 0.0, 0.25}, last}, 0.2, Tool::kOff);
+  plan.waypoints[2].tool = Tool::kAir;  // switched at speed, on the way to the last waypoint
+  rig.emu().refuseIoWritesForTest(30);
+  ASSERT_TRUE(rig.driver().submitPlan(plan).accepted);
+  ASSERT_TRUE(rig.waitFor(
+      [&] { return rig.driver().status().reason.find("writing the tool output IO24") != std::string::npos; }, 10.0))
+      << rig.driver().status().reason;
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle(last); }, 15.0)) << rig.driver().status().reason;
+  EXPECT_TRUE(rig.emu().tool().air);
+  EXPECT_GE(rig.driver().status().stats.faults, 1);
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+}
+
+// An arm moved out of the workspace box while the controller was away (jogged) is led back in by
+// the plan it resumes; only leaving the box stops the arm. The per-command check once compared
+// each command with itself, so it never stopped an arm leaving and stopped this one at once.
+TEST(DriverEmulator, AnArmOutsideTheBoxIsLedBackIn) {
+  Rig rig([](DriverConfig& c) { c.reconnect_period_s = 1.0; });
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  rig.emu().dropConnections();
+  ASSERT_TRUE(rig.waitMode(DriverMode::Disconnected, 1.0)) << rig.driver().status().reason;
+  const Eigen::Vector3d first(0.0, 0.1, 0.25), last(0.1, 0.0, 0.25), outside(0.0, 0.2, 0.25);
+  ASSERT_FALSE(rig.cfg().safety.workspace.contains(outside, rig.cfg().safety.workspace_margin));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {first, last}, 0.1)).accepted);
+  const auto q = inverseNozzle(rig.cfg().arm, down(outside.x(), outside.y(), outside.z()), rig.emu().joints().q);
+  ASSERT_TRUE(q.has_value());
+  ASSERT_TRUE(rig.emu().setJoints(*q));
+  ASSERT_TRUE(rig.waitFor([&] { return rig.driver().status().stats.reconnects == 1; }, 3.0));
+  ASSERT_TRUE(rig.waitFor([&] { return rig.atNozzle(last); }, 10.0)) << rig.driver().status().reason;
+  EXPECT_EQ(rig.driver().status().stats.safety_stops, 0);
+  EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+  EXPECT_LE(rig.maxStepRatio(), 1.0);
+}

@@ -58,10 +58,10 @@ class Rc8Session {
   SessionResult enable();
   /// One slave cycle: sends the target (rad), returns the controller's position (rad).
   SessionResult move(const Joints& target, Joints* measured);
-  /// Switches the tool outputs (only what changed, unless `force`).
+  /// Switches the tool outputs (only what changed, unless `force`). A write the controller refuses
+  /// ends slave mode as a refused slvMove does (the cycle's command was not sent).
   SessionResult setTool(Tool tool, bool force = false);
-  /// Robot_Halt on the watch connection (safe to call from another thread), then remembers
-  /// that slave mode is over.
+  /// Robot_Halt on the watch connection (safe to call from another thread).
   SessionResult halt();
   /// Leaves slave mode (if in it) and switches the motor off (after a halt).
   SessionResult motorOff();

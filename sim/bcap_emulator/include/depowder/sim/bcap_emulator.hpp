@@ -115,6 +115,9 @@ class BcapEmulator {
   /// Tests: each sync-mode slvMove reply leaves this long after its cycle, as when this
   /// emulator's own host stalls it. Not the client's time: no late-command error for it.
   void stallRepliesForTest(double seconds) { reply_stall_ns_ = static_cast<std::int64_t>(seconds * 1e9); }
+  /// Tests: the next `n` Variable_PutValue requests are refused (E_ACCESSDENIED), as a controller
+  /// refuses a write to an I/O it does not allow.
+  void refuseIoWritesForTest(int n) { io_refusals_ = n; }
 
   /// Handles one request as the server does (exposed for tests). `connection` identifies the
   /// caller for arm ownership. May block until the next cycle for a sync-mode slvMove, or for
@@ -173,6 +176,7 @@ class BcapEmulator {
   std::int64_t last_move_ns_ = 0;                ///< CLOCK_MONOTONIC of the last applied slvMove (its cycle)
   std::int64_t last_reply_ns_ = 0;               ///< CLOCK_MONOTONIC when that slvMove's reply went out
   std::atomic<std::int64_t> reply_stall_ns_{0};  ///< stallRepliesForTest
+  std::atomic<int> io_refusals_{0};              ///< refuseIoWritesForTest
   std::int64_t cycle_origin_ns_ = 0;
   std::int64_t slave_moves_ = 0;
   std::map<std::string, bool> io_;
