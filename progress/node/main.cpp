@@ -56,7 +56,9 @@ int main(int argc, char** argv) {
         input_problem = "bad POINTS frame: " + why;
         return;
       }
+      const std::int64_t duplicates = logic.stats().duplicate_frames;
       append(logic.onPoints(msg.utime, std::move(*cloud), node::steadyUtime()));
+      heartbeat.addDropped(logic.stats().duplicate_frames - duplicates);  // a frame received twice
     });
     bus.subscribe<part_pose_t>("PART_POSE",
                                [&](const part_pose_t& msg, const std::string&) { append(logic.onPose(msg)); });
@@ -88,6 +90,7 @@ int main(int argc, char** argv) {
       heartbeat.setStat("estimates", static_cast<double>(s.estimates));
       heartbeat.setStat("no_pose", static_cast<double>(s.no_pose));
       heartbeat.setStat("invalid_poses", static_cast<double>(s.invalid_poses));
+      heartbeat.setStat("duplicate_frames", static_cast<double>(s.duplicate_frames));
       heartbeat.setStat("compute_ms", s.last_compute_ms);
       if (!problems.empty())
         heartbeat.setState(heartbeat_t::DEGRADED, problems.begin()->first + ": " + problems.begin()->second);

@@ -3,12 +3,22 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include "depowder/clock.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/node/convert.hpp"
 
 namespace depowder::progress {
+namespace {
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
 
 ProgressNodeOptions readProgressOptions(const node::CellConfig& cell) {
   ProgressNodeOptions o;
@@ -18,6 +28,11 @@ ProgressNodeOptions readProgressOptions(const node::CellConfig& cell) {
   r.read("eta2", e.eta2, 0.0, 1.0);
   if (e.eta2 <= e.eta1) r.fail("eta2", "must be greater than eta1");
   r.read("band_offset", e.band_offset, -0.005, 0.05);
+  // The band starts at xi + band_offset from the part (estimateProgress refuses it otherwise, on every frame).
+  for (const node::PartConfig& part : cell.parts)
+    if (part.xi + e.band_offset <= 0)
+      r.fail("band_offset", "value " + fmt(e.band_offset) + " with part '" + part.name + "' (xi " + fmt(part.xi) +
+                                ") leaves xi + band_offset <= 0: the band must start outside the part");
   r.read("band_width", e.band_width, 0.001, 0.05);
   r.read("top_margin", e.top_margin, -0.05, 0.1);
   r.read("min_band_points", e.min_band_points, 1, 100000);
@@ -109,7 +124,7 @@ progress_t ProgressNode::process(Frame& frame, Part& part, const Pose* pose, con
       msg.status = progress_t::NO_POINTS;
       break;
     case Status::kNoContour:
-    case Status::kBadConfig:  // cannot happen with validated options; eta is held all the same
+    case Status::kBadConfig:  // cannot happen with readProgressOptions' options; eta is held all the same
       msg.status = progress_t::NO_CONTOUR;
       break;
   }
@@ -158,11 +173,18 @@ std::vector<progress_t> ProgressNode::onPoints(std::int64_t utime, Cloud cloud, 
     stats_.last_problem = "POINTS with " + utimeOutOfRange(utime) + ": not used";
     return out;
   }
+  for (const Frame& f : pending_)
+    if (f.utime == utime) {  // received twice: each (frame, part) is estimated once
+      ++stats_.duplicate_frames;
+      stats_.last_problem = "POINTS utime " + std::to_string(utime) + " received again: not used";
+      return out;
+    }
   Frame frame{utime, now_us, std::move(cloud), {}};
-  // A pose for this utime may already be here (the tracker was faster than our POINTS delivery).
+  // A pose for this utime may already be here (the tracker was faster than our POINTS delivery);
+  // the first one, as onPose does when the frame comes first (a PART_POSE may come twice).
   for (auto& [name, part] : parts_)
     for (const PoseRecord& r : part.poses)
-      if (r.utime == utime) out.push_back(process(frame, part, &r.T_cell_part, ""));
+      if (r.utime == utime && !frame.done[name]) out.push_back(process(frame, part, &r.T_cell_part, ""));
   pending_.push_back(std::move(frame));
   while (static_cast<int>(pending_.size()) > options_.max_pending) {
     flush(pending_.front(), out);

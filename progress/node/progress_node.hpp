@@ -57,13 +57,14 @@ class ProgressNode {
   std::vector<progress_t> poll(std::int64_t now_us);
 
   struct Stats {
-    std::int64_t frames = 0;         ///< POINTS frames received
-    std::int64_t estimates = 0;      ///< (frame, part) estimates published
-    std::int64_t no_pose = 0;        ///< of them NO_POSE
-    std::int64_t unknown_parts = 0;  ///< PART_POSE for a part not in the cell
-    std::int64_t invalid_poses = 0;  ///< PART_POSE with NaN / non-unit quaternion, or a utime outside 0 to 2^53 us
-    double last_compute_ms = 0;      ///< estimator time of the last estimate
-    std::string last_problem;        ///< the last non-OK reason, for the heartbeat
+    std::int64_t frames = 0;            ///< POINTS frames received
+    std::int64_t estimates = 0;         ///< (frame, part) estimates published
+    std::int64_t no_pose = 0;           ///< of them NO_POSE
+    std::int64_t unknown_parts = 0;     ///< PART_POSE for a part not in the cell
+    std::int64_t invalid_poses = 0;     ///< PART_POSE with NaN / non-unit quaternion, or a utime outside 0 to 2^53 us
+    std::int64_t duplicate_frames = 0;  ///< POINTS with the utime of a frame still pending: not used
+    double last_compute_ms = 0;         ///< estimator time of the last estimate
+    std::string last_problem;           ///< the last non-OK reason, for the heartbeat
   };
   const Stats& stats() const { return stats_; }
   std::vector<std::string> partNames() const;

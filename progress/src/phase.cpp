@@ -37,24 +37,15 @@ void EtaFilter::reset() {
   window_.clear();
   has_value_ = false;
   value_ = 0;
+  jump_pending_ = false;
 }
 
-double EtaFilter::update(double eta_raw, const Pose& T_cell_part) {
-  if (!std::isfinite(eta_raw) || !T_cell_part.matrix().allFinite()) return value_;
-  // A pose jump (the part was pushed or fell over) changes H_max / H_min: the old values
-  // describe another geometry, so start again (Eq. 2 is "always estimated based on the current pose").
-  if (has_value_ &&
-      (rotationAngle(reference_.rotation(), T_cell_part.rotation()) * 180 / M_PI > config_.reset_rotation_deg ||
-       translationDistance(reference_, T_cell_part) > config_.reset_translation)) {
-    if (config_.mode != EtaFilterMode::kRunningMax) {
-      window_.clear();
-      has_value_ = false;
-      ++resets_;
-    }
-    reference_ = T_cell_part;
-  }
-  if (!has_value_) reference_ = T_cell_part;
+bool EtaFilter::farFrom(const Pose& a, const Pose& b) const {
+  return rotationAngle(a.rotation(), b.rotation()) * 180 / M_PI > config_.reset_rotation_deg ||
+         translationDistance(a, b) > config_.reset_translation;
+}
 
+void EtaFilter::add(double eta_raw) {
   switch (config_.mode) {
     case EtaFilterMode::kMedian: {
       window_.push_back(eta_raw);
@@ -74,6 +65,33 @@ double EtaFilter::update(double eta_raw, const Pose& T_cell_part) {
       break;
   }
   has_value_ = true;
+}
+
+double EtaFilter::update(double eta_raw, const Pose& T_cell_part) {
+  if (!std::isfinite(eta_raw) || !T_cell_part.matrix().allFinite()) return value_;
+  // A pose jump (the part was pushed or fell over) changes H_max / H_min: the old values
+  // describe another geometry, so start again (Eq. 2 is "always estimated based on the current pose").
+  // A single glitched pose is a jump too, and so is the correct pose after it: clearing on it would
+  // pass the glitched frame's eta straight through (a median of one). So a jump is only taken once
+  // the next frame confirms it (also far from the reference, and near the jumped pose); until then
+  // the frame's eta is not used and the previous value is returned. A topple is followed one frame later.
+  if (has_value_ && (config_.mode == EtaFilterMode::kMedian || config_.mode == EtaFilterMode::kRunningMaxReset) &&
+      farFrom(reference_, T_cell_part)) {
+    if (!jump_pending_ || farFrom(jump_pose_, T_cell_part)) {
+      jump_pending_ = true;  // not confirmed (yet): a glitch until the next frame says otherwise
+      jump_pose_ = T_cell_part;
+      jump_eta_ = eta_raw;
+      return value_;
+    }
+    const double jumped_eta = jump_eta_;  // the first frame at the new pose counts too
+    reset();
+    ++resets_;
+    reference_ = T_cell_part;
+    add(jumped_eta);
+  }
+  jump_pending_ = false;
+  if (!has_value_) reference_ = T_cell_part;
+  add(eta_raw);
   return value_;
 }
 

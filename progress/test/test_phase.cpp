@@ -55,6 +55,42 @@ TEST(EtaFilter, NonFiniteInputIsIgnored) {
   EXPECT_DOUBLE_EQ(f.update(0.8, bad), 0.3);
 }
 
+// One glitched PART_POSE (5 cm off) with a wrong eta between correct frames: the jump is not
+// confirmed by the next frame, so the filter is not cleared and that eta is not used; the phase
+// machine, which never goes back to 1, stays in 1. Two glitches in a row at different poses
+// neither. A real jump (two frames at the new pose) is followed at its second frame.
+TEST(EtaFilter, AJumpIsFollowedOnlyOnceTheNextFrameConfirmsIt) {
+  const Pose at = makePoseRpy({0, 0, 0.05}, 0, 0, 0);
+  const Pose glitch = makePoseRpy({0.05, 0, 0.05}, 0, 0, 0);              // 5 cm away
+  const Pose glitch2 = makePoseRpy({0, 0, 0.05}, 0, 0, 30 * M_PI / 180);  // 30 deg, and far from `glitch`
+  const Pose toppled = makePoseRpy({0.01, 0.04, 0.03}, M_PI / 2, 0, 0);
+  for (EtaFilterMode mode : {EtaFilterMode::kMedian, EtaFilterMode::kRunningMaxReset}) {
+    SCOPED_TRACE(toString(mode));
+    EtaFilter f = filterOf(mode);
+    PhaseMachine phase;
+    std::int64_t t = 0;
+    auto frame = [&](double raw, const Pose& pose) {
+      const double eta = f.update(raw, pose);
+      phase.update(eta, t += kFrameUs);
+      return eta;
+    };
+    for (int i = 0; i < 6; ++i) frame(0.2, at);
+    EXPECT_NEAR(frame(0.95, glitch), 0.2, 1e-12);  // not used
+    for (int i = 0; i < 5; ++i) EXPECT_NEAR(frame(0.2, at), 0.2, 1e-12) << "frame " << i << " after the glitch";
+    EXPECT_NEAR(frame(0.95, glitch), 0.2, 1e-12);
+    EXPECT_NEAR(frame(0.95, glitch2), 0.2, 1e-12);  // far from the first glitch: no confirmation
+    EXPECT_NEAR(frame(0.2, at), 0.2, 1e-12);
+    EXPECT_EQ(f.resets(), 0);
+    EXPECT_EQ(phase.phase(), Phase::kVacuumBuried);
+
+    // The part really fell over: held for one frame, then the new pose's values.
+    EXPECT_NEAR(frame(0.6, toppled), 0.2, 1e-12);
+    EXPECT_NEAR(frame(0.6, toppled), 0.6, 1e-12);
+    EXPECT_EQ(f.resets(), 1);
+    EXPECT_EQ(phase.phase(), Phase::kVacuumTracked);
+  }
+}
+
 TEST(EtaFilter, ParsesModeNames) {
   EtaFilterMode m = EtaFilterMode::kNone;
   EXPECT_TRUE(parseEtaFilterMode("running_max_reset", m));

@@ -15,9 +15,9 @@ namespace depowder::progress {
 namespace {
 
 // The committed 6 cm cube, centred at (0, 0, 0.05): bottom 2 cm, top 8 cm.
-std::string cellYaml(const std::string& progress_section = "{}") {
+std::string cellYaml(const std::string& progress_section = "{}", const std::string& xi = "0.01") {
   return std::string("parts:\n  - name: cube\n    mesh: ") + DEPOWDER_SOURCE_DIR +
-         "/config/parts/cube.stl\n    xi: 0.01\n    initial_pose: {xyz: [0, 0, 0.05], rpy_deg: [0, 0, 0]}\n" +
+         "/config/parts/cube.stl\n    xi: " + xi + "\n    initial_pose: {xyz: [0, 0, 0.05], rpy_deg: [0, 0, 0]}\n" +
          "progress: " + progress_section + "\n";
 }
 
@@ -60,6 +60,28 @@ TEST(Options, DefaultsRangesAndUnknownKeys) {
   EXPECT_NE(error("{eta1: 0.9, eta2: 0.5}").find("eta2"), std::string::npos);
   EXPECT_NE(error("{bandwidth: 0.01}").find("bandwidth"), std::string::npos);
   EXPECT_NE(error("{eta_filter: mean}").find("eta_filter"), std::string::npos);
+}
+
+// band_offset (>= -5 mm) and a part's xi (>= 0.5 mm) are each in range, but the band must start
+// outside the part: xi + band_offset <= 0 is refused when the options are read, naming the part
+// and both values, not by the estimator on every frame (NO_CONTOUR for ever).
+TEST(Options, BandOffsetMustKeepEveryPartsBandOutsideIt) {
+  auto error = [](const std::string& section, const std::string& xi) {
+    try {
+      readProgressOptions(node::loadCellFromString(cellYaml(section, xi)));
+    } catch (const node::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string e = error("{band_offset: -0.001}", "0.0005");
+  EXPECT_NE(e.find("band_offset"), std::string::npos) << e;
+  EXPECT_NE(e.find("-0.001"), std::string::npos) << e;
+  EXPECT_NE(e.find("'cube'"), std::string::npos) << e;
+  EXPECT_NE(e.find("0.0005"), std::string::npos) << e;
+  EXPECT_NE(error("{band_offset: -0.0005}", "0.0005"), "");  // xi + band_offset = 0
+  EXPECT_EQ(error("{band_offset: -0.0004}", "0.0005"), "");
+  EXPECT_EQ(error("{band_offset: -0.005}", "0.01"), "");
 }
 
 class NodeTest : public ::testing::Test {
@@ -127,6 +149,31 @@ TEST_F(NodeTest, AFrameTheTrackerSkippedUsesTheNearestPose) {
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].status, +progress_t::OK) << out[0].status_reason;
   EXPECT_NEAR(out[0].T_cell_part.position[0], 0.01, 1e-9);  // 50 ms away, not 400 ms
+}
+
+// A PART_POSE published twice, or a POINTS frame received twice: each (frame, part) is
+// estimated once (one PROGRESS, the eta filter fed once, counted once).
+TEST_F(NodeTest, EachFrameIsEstimatedOncePerPart) {
+  ProgressNode n(cell_, options_);
+  // The pose twice, before the frame.
+  n.onPose(poseMsg(1000, kInit));
+  n.onPose(poseMsg(1000, kInit));
+  EXPECT_EQ(n.onPoints(1000, cubeScene(0.05), 0).size(), 1u);
+  // The frame twice, before its pose: the second is not used.
+  EXPECT_TRUE(n.onPoints(2000, cubeScene(0.05), 0).empty());
+  EXPECT_TRUE(n.onPoints(2000, cubeScene(0.05), 0).empty());
+  EXPECT_EQ(n.onPose(poseMsg(2000, kInit)).size(), 1u);
+  EXPECT_TRUE(n.onPose(poseMsg(2000, kInit)).empty());  // and then the pose twice
+  // The frame twice, after its pose.
+  n.onPose(poseMsg(3000, kInit));
+  EXPECT_EQ(n.onPoints(3000, cubeScene(0.05), 0).size(), 1u);
+  EXPECT_TRUE(n.onPoints(3000, cubeScene(0.05), 0).empty());
+  EXPECT_TRUE(n.poll(10'000'000).empty());
+  EXPECT_EQ(n.stats().estimates, 3);
+  EXPECT_EQ(n.stats().frames, 5);
+  EXPECT_EQ(n.stats().duplicate_frames, 2);
+  EXPECT_NE(n.stats().last_problem.find("POINTS utime 3000 received again"), std::string::npos)
+      << n.stats().last_problem;
 }
 
 TEST_F(NodeTest, BadInputsAreCountedAndReported) {

@@ -9,7 +9,10 @@
 // current pose) it stays at the old, higher value for good. The default is a median
 // over the last `window` frames that is cleared when the pose jumps: one or two bad
 // frames in five cannot move it, it follows a topple within `window` frames, and it
-// follows powder that slides back, which a monotone filter cannot.
+// follows powder that slides back, which a monotone filter cannot. A jump is taken only
+// when the next frame confirms it (its pose also far from the old one and near the
+// jumped pose); until then that frame's eta is not used, so one glitched PART_POSE cannot
+// clear the filter and put its own eta through: a topple is followed one frame later.
 #pragma once
 
 #include <cstdint>
@@ -21,9 +24,9 @@
 namespace depowder::progress {
 
 enum class EtaFilterMode {
-  kMedian,           ///< median of the last `window` values, cleared when the pose jumps (default)
+  kMedian,           ///< median of the last `window` values, cleared on a confirmed pose jump (default)
   kRunningMax,       ///< the authors': max of all values so far
-  kRunningMaxReset,  ///< max since the last pose jump
+  kRunningMaxReset,  ///< max since the last confirmed pose jump
   kNone,             ///< the raw value
 };
 const char* toString(EtaFilterMode m);
@@ -33,8 +36,8 @@ bool parseEtaFilterMode(const std::string& name, EtaFilterMode& mode);
 struct EtaFilterConfig {
   EtaFilterMode mode = EtaFilterMode::kMedian;
   int window = 5;                   ///< frames in the median
-  double reset_rotation_deg = 20;   ///< deg of rotation since the last reset that clears the filter
-  double reset_translation = 0.03;  ///< m of translation since the last reset that clears the filter
+  double reset_rotation_deg = 20;   ///< deg of rotation since the last reset that is a pose jump
+  double reset_translation = 0.03;  ///< m of translation since the last reset that is a pose jump
 };
 
 class EtaFilter {
@@ -42,21 +45,31 @@ class EtaFilter {
   explicit EtaFilter(EtaFilterConfig config = {}) : config_(config) {}
 
   /// Adds this frame's Eq. 2 value (status kOk only) computed at pose T_cell_part; returns the
-  /// filtered eta. Non-finite eta or pose: ignored, the previous value is returned.
+  /// filtered eta. Non-finite eta or pose: ignored, the previous value is returned. kMedian and
+  /// kRunningMaxReset: a pose jump from the last reset's pose is held (the previous value is
+  /// returned) until the next frame confirms it (far from that pose too, and near the jumped one);
+  /// then the filter restarts from both frames' values.
   double update(double eta_raw, const Pose& T_cell_part);
   double value() const { return value_; }
   bool empty() const { return !has_value_; }
-  /// Times the filter was cleared by a pose jump.
+  /// Times the filter was cleared by a confirmed pose jump.
   int resets() const { return resets_; }
   void reset();
 
  private:
+  /// More than reset_rotation_deg or reset_translation apart.
+  bool farFrom(const Pose& a, const Pose& b) const;
+  void add(double eta_raw);
+
   EtaFilterConfig config_;
   std::deque<double> window_;
   Pose reference_ = Pose::Identity();  ///< pose at the last reset
   double value_ = 0;
   bool has_value_ = false;
   int resets_ = 0;
+  bool jump_pending_ = false;          ///< the last frame jumped from reference_, not confirmed yet
+  Pose jump_pose_ = Pose::Identity();  ///< its pose
+  double jump_eta_ = 0;                ///< and its eta
 };
 
 /// Values of progress_t.PHASE_*.

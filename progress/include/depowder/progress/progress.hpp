@@ -56,7 +56,7 @@ struct ProgressEstimate {
   double h_pow = 0;               ///< mean height of the powder contour, m (cell z), before clamping
   double h_max = 0;               ///< CAD top at the current pose, m
   double h_min = 0;               ///< CAD bottom at the current pose, m
-  bool covered = false;           ///< the band's median height is above H_max: the part is buried
+  bool covered = false;           ///< the band's lower quartile height is at or above H_max: the part is buried
   Cloud band;                     ///< the powder points of the contour band (cell frame), outliers removed
   Cloud contour;                  ///< ordered closed polyline around the part (cell frame), counter-clockwise
   Cloud part;                     ///< scan points segmented as part (cell frame)
