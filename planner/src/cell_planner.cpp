@@ -221,7 +221,7 @@ InputResult CellPlanner::checkClock(const char* what, const std::string& part, s
     s = std::move(fresh);
   }
   newest_utime_ = newest_progress_utime_ = active_utime_ = 0;
-  cycle_end_progress_utime_ = cycle_end_robot_utime_ = -1;
+  cycle_end_progress_utime_ = cycle_end_robot_utime_ = home_failed_utime_ = -1;
   active_is_cycle_ = false;
   back_utime_ = -1;
   ++clock_restarts_;
@@ -302,6 +302,7 @@ bool CellPlanner::cycleFinished() const {
 std::optional<Plan> CellPlanner::emit(Plan plan) {
   plan.plan_id = next_plan_id_++;
   active_id_ = plan.plan_id;
+  emitted_robot_utime_ = robot_ ? robot_->utime : -1;
   active_size_ = plan.waypoints.size();
   active_waypoints_ = plan.waypoints;
   active_utime_ = plan.utime;
@@ -346,10 +347,21 @@ std::optional<Plan> CellPlanner::hold(const std::string& reason, std::int64_t ut
 std::optional<Plan> CellPlanner::home(const std::string& why, std::int64_t utime) {
   active_is_cycle_ = false;
   if (home_reason_ == why) return refresh(utime);
-  home_reason_ = why;
+  // A home move that could not be planned is planned again on newer frames (a part or the arm
+  // may have moved out of the way), as a failed cycle is; said once while it keeps failing.
+  if (home_failed_utime_ >= newest_utime_) return std::nullopt;
   const robot::Joints q = robot_ ? robot_->q : arm_->q_home;
   Plan plan = planHome(*world_, q, config_, why);
   plan.utime = utime;
+  if (plan.status == PlanStatus::kHome) {
+    home_reason_ = why;
+    home_failed_utime_ = -1;
+    home_failed_.clear();
+    return emit(std::move(plan));
+  }
+  home_failed_utime_ = newest_utime_;
+  if (plan.reason == home_failed_ && !plan.hasWaypoints()) return std::nullopt;
+  home_failed_ = plan.reason;
   return emit(std::move(plan));
 }
 
@@ -396,12 +408,17 @@ std::optional<Plan> CellPlanner::step() {
   }
   if (candidates.empty()) {
     std::string lost, waiting;
+    bool others = false;  // neither done nor lost: their next estimates may make them eligible again
     for (std::size_t i = 0; i < states_.size(); ++i) {
-      if (reports_[i].lost && !reports_[i].done) lost += (lost.empty() ? "" : ", ") + reports_[i].name;
+      if (reports_[i].done) continue;
+      if (reports_[i].lost)
+        lost += (lost.empty() ? "" : ", ") + reports_[i].name;
+      else
+        others = true;
       if (!states_[i].progress) waiting += (waiting.empty() ? "" : ", ") + reports_[i].name;
     }
     if (!waiting.empty()) return hold("hold: no PROGRESS yet for " + waiting, newest_utime_);
-    if (!lost.empty()) return home("every remaining part is lost: " + lost, newest_utime_);
+    if (!lost.empty() && !others) return home("every remaining part is lost: " + lost, newest_utime_);
     return hold("hold: no part can be planned until new estimates arrive", newest_utime_);
   }
 
@@ -452,8 +469,14 @@ std::optional<Plan> CellPlanner::step() {
     const std::string blocked = same && !moved ? othersBlockTheCycle() : "";
     // The driver dropped the cycle (an ESTOP reset, a restart): re-sent whole, its first waypoint
     // would be joined by a straight line from wherever the arm stopped, checked by nobody. Unless
-    // the arm is still where the cycle begins, it is planned anew from there.
-    const bool dropped = same && !moved && robot_ && robot_->plan_id != active_id_ && !atCycleStart();
+    // the arm is still where the cycle begins, it is planned anew from there. A driver still
+    // running the plan before ours has not dropped it yet: it takes a plan over within a cycle or
+    // two, or once it has braked on the running one (under 0.1 s from the nozzle's top speed). Each
+    // refresh was once taken for a drop and the cycle started over, again and again.
+    constexpr std::int64_t kTakeOver = 200000;  // us of the driver's clock
+    const bool dropped = same && !moved && robot_ && robot_->plan_id != active_id_ &&
+                         (emitted_robot_utime_ < 0 || robot_->utime - emitted_robot_utime_ > kTakeOver) &&
+                         !atCycleStart();
     if (same && !moved && blocked.empty() && !dropped) return refresh(utime);
 
     // 5. Build the cycle. A pose-triggered regeneration keeps the loop's layer.
@@ -500,6 +523,8 @@ std::optional<Plan> CellPlanner::step() {
     active_powder_ = request.powder_height;
     active_is_cycle_ = true;
     home_reason_.clear();
+    home_failed_.clear();
+    home_failed_utime_ = -1;
     rememberWorld();
     return emit(std::move(plan));
   }

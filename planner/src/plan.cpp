@@ -293,9 +293,10 @@ Plan planHome(const CollisionWorld& world, const robot::Joints& q_now, const Pla
   TransitionResult t = planTransition(world, *q_start, arm.q_home, config);
   plan.transitions.push_back(t);
   if (!t.ok()) {
+    // The way out of a part, if any, is kept (as planCycle keeps it): away from it at least.
     plan.status = PlanStatus::kTransitionFailed;
     plan.reason = "hold: cannot go home (" + why + "): " + t.reason;
-    plan.waypoints.clear();
+    if (plan.hasWaypoints()) plan.reason += "; escaped from the part";
   } else {
     plan.status = PlanStatus::kHome;
     const auto moves = pathWaypoints(arm, t.path, config.transition.speed);

@@ -437,7 +437,9 @@ TEST_F(CellTest, AnotherPartMovedIntoTheCycleHasItPlannedAnew) {
   EXPECT_EQ(p2->reason.find("refresh"), std::string::npos) << p2->reason;
   const CheckReport again = check(*p2, T_left, toppled);
   EXPECT_TRUE(again.clean()) << p2->reason << "; " << again.first;
-  if (p2->hasWaypoints()) EXPECT_NE(p2->reason.find("another part in the cycle's way (waypoint"), std::string::npos);
+  if (p2->hasWaypoints()) {
+    EXPECT_NE(p2->reason.find("another part in the cycle's way (waypoint"), std::string::npos);
+  }
   std::printf("  after the move: %zu waypoints, %s\n", p2->waypoints.size(), p2->reason.c_str());
   // Small moves of another part (under replan.translation) leave the cycle alone.
   auto p3 = planner->step();
@@ -479,6 +481,49 @@ TEST_F(CellTest, ACycleTheDriverDroppedIsPlannedAnewFromWhereTheArmIs) {
   EXPECT_TRUE(check(*p3, T_left, T_right).clean());
 }
 
+// For a cycle or two after a plan goes out (longer if it brakes first), the driver still reports
+// the plan before it: not a dropped cycle. Once taken for one, each refresh of an air-blast raster
+// had the raster planned anew from its first line, again and again (the demo: 58 of 70 plans).
+TEST_F(CellTest, APlanNotYetTakenOverIsNotADroppedCycle) {
+  frame("left", T_left, Phase::kAirBlast, 0.0);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints());
+  // The arm halfway through it, more than direct_move short of the waypoint it is on its way to.
+  const std::size_t k = p1->waypoints.size() / 2;
+  std::size_t j = k;
+  while (j > 0 && translationDistance(p1->waypoints[j].T_cell_nozzle, p1->waypoints[k].T_cell_nozzle) <=
+                      config.transition.direct_move)
+    --j;
+  ASSERT_GT(translationDistance(p1->waypoints[j].T_cell_nozzle, p1->waypoints[k].T_cell_nozzle),
+            config.transition.direct_move);
+  RobotInput r;
+  r.plan_id = p1->plan_id;
+  r.waypoint_index = static_cast<int>(k);
+  r.q = p1->waypoints[j].q;
+  auto robot = [&] {
+    r.utime = utime;
+    ASSERT_TRUE(planner->onRobot(r).ok());
+  };
+  utime += 600000;  // a refresh is due
+  frame("left", T_left, Phase::kAirBlast, 0.0);
+  ASSERT_NO_FATAL_FAILURE(robot());
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2 && p2->hasWaypoints());
+  EXPECT_EQ(p2->reason.rfind("refresh: ", 0), 0u) << p2->reason;
+  for (int cycles = 1; cycles <= 12; ++cycles) {  // 96 ms of the driver's states
+    utime += 8000;
+    ASSERT_NO_FATAL_FAILURE(robot());
+    const auto p = planner->step();
+    EXPECT_FALSE(p) << "after " << cycles << " cycles: " << p->reason;
+  }
+  // Still not taken after the take-over time: dropped (refused), planned anew from the arm.
+  utime += 200000;
+  ASSERT_NO_FATAL_FAILURE(robot());
+  auto p3 = planner->step();
+  ASSERT_TRUE(p3 && p3->hasWaypoints());
+  EXPECT_NE(p3->reason.find("the driver dropped the cycle away from its start"), std::string::npos) << p3->reason;
+}
+
 TEST_F(CellTest, PhaseOneUsesTheInitialPose) {
   // The tracker's pose is off by 3 cm, but in phase 1 the printed pose counts.
   frame("left", makePoseRpy({-0.05, 0.0, 0.03}, 0, 0, 0.1), Phase::kVacuumBuried, 0.08);
@@ -513,6 +558,56 @@ TEST_F(CellTest, LostPartIsSkippedAndReported) {
   ASSERT_TRUE(home);
   EXPECT_EQ(home->status, PlanStatus::kHome);
   EXPECT_NE(home->reason.find("lost: left, right"), std::string::npos) << home->reason;
+}
+
+// One part LOST and the other's cycle not plannable on this frame (the nozzle stuck in the box's
+// wall): a hold until newer estimates, not home (it once went home, or tried to, to come back for
+// the other part on its next frame).
+TEST_F(CellTest, ALostPartSendsTheNozzleHomeOnlyWhenEveryOtherIsDoneOrLost) {
+  ASSERT_NO_FATAL_FAILURE(robotAtTip({0.5 * Box{}.size.x() + 0.005, 0.0, 0.1}));
+  frame("left", T_left, Phase::kVacuumTracked, 0.04, TrackStatus::kLost);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04);
+  auto failed = planner->step();
+  ASSERT_TRUE(failed);
+  EXPECT_FALSE(failed->hasWaypoints());
+  EXPECT_NE(planner->parts()[1].note.find("in collision"), std::string::npos) << planner->parts()[1].note;
+  auto next = planner->step();
+  ASSERT_TRUE(next);
+  EXPECT_EQ(next->status, PlanStatus::kHold);
+  EXPECT_NE(next->reason.find("until new estimates"), std::string::npos) << next->reason;
+  utime += 33000;
+  frame("left", T_left, Phase::kVacuumTracked, 0.04, TrackStatus::kLost);
+  frame("right", T_right, Phase::kVacuumTracked, 0.04, TrackStatus::kLost);
+  ASSERT_NO_FATAL_FAILURE(robotAtTip({0.0, 0.0, 0.3}));
+  auto home = planner->step();
+  ASSERT_TRUE(home);
+  EXPECT_EQ(home->status, PlanStatus::kHome);
+  EXPECT_NE(home->reason.find("lost: left, right"), std::string::npos) << home->reason;
+}
+
+// A home move that cannot be planned (the nozzle in the box's wall) is said once and planned
+// again on newer frames; it was once never tried again.
+TEST_F(CellTest, AHomeMoveThatFailedIsPlannedAgainOnNewerFrames) {
+  ASSERT_NO_FATAL_FAILURE(robotAtTip({0.5 * Box{}.size.x() + 0.005, 0.0, 0.1}));
+  frame("left", T_left, Phase::kDone, 0.0);
+  frame("right", T_right, Phase::kDone, 0.0);
+  auto failed = planner->step();
+  ASSERT_TRUE(failed);
+  EXPECT_EQ(failed->status, PlanStatus::kTransitionFailed);
+  EXPECT_NE(failed->reason.find("cannot go home (all parts done)"), std::string::npos) << failed->reason;
+  EXPECT_FALSE(planner->step()) << "said once";
+  utime += 33000;
+  frame("left", T_left, Phase::kDone, 0.0);
+  frame("right", T_right, Phase::kDone, 0.0);
+  EXPECT_FALSE(planner->step()) << "the same failure, not said again";
+  ASSERT_NO_FATAL_FAILURE(robotAtTip({0.0, 0.0, 0.3}));  // moved out by hand
+  utime += 33000;
+  frame("left", T_left, Phase::kDone, 0.0);
+  frame("right", T_right, Phase::kDone, 0.0);
+  auto home = planner->step();
+  ASSERT_TRUE(home);
+  EXPECT_EQ(home->status, PlanStatus::kHome) << home->reason;
+  EXPECT_TRUE(home->hasWaypoints());
 }
 
 TEST_F(CellTest, AllDoneGoesHome) {

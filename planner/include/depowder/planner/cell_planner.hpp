@@ -168,7 +168,10 @@ class CellPlanner {
   bool active_is_cycle_ = false;
   std::vector<std::pair<Pose, planner::PartState>> checked_world_;  ///< see rememberWorld
   std::string last_hold_;
-  std::string home_reason_;  ///< why the last home move was planned ("" if none since the last cycle)
+  std::string home_reason_;                ///< why the last home move was planned ("" if none since the last cycle)
+  std::int64_t emitted_robot_utime_ = -1;  ///< the driver's last ROBOT_STATE utime when the active plan went out
+  std::string home_failed_;                ///< the reason of the last home move that could not be planned
+  std::int64_t home_failed_utime_ = -1;    ///< newest input utime then (planned again after newer ones)
   bool finished_ = false;
   std::int64_t clock_restarts_ = 0;
   std::int64_t back_utime_ = -1;  ///< of the last input if it was refused as far behind the newest (-1: it was not)
