@@ -44,11 +44,13 @@ struct CellPlanner::PartState {
   PartSpec spec;
   std::optional<PoseInput> pose;
   std::optional<ProgressInput> progress;
-  double powder = std::nan("");    ///< last h_pow from a progress message with a contour
-  std::int64_t failed_utime = -1;  ///< newest input utime when planning last failed (retry after newer)
-  bool blasting = false;           ///< its air blast has begun (undercut done); until it leaves phase 3
-  std::optional<Pose> still_pose;  ///< tracked pose the part has kept within the moving thresholds...
-  std::int64_t moved_utime = -1;   ///< ...since this frame (-1: not since tracking began)
+  double powder = std::nan("");           ///< last h_pow from a progress message with a contour
+  std::int64_t failed_utime = -1;         ///< newest input utime when planning last failed (retry after newer)
+  bool blasting = false;                  ///< its air blast has begun (undercut done); until it leaves phase 3
+  double undercut_powder = std::nan("");  ///< h_pow when its last undercut loop was planned
+  int undercut_stalls = 0;                ///< undercut loops in a row that hardly lowered it
+  std::optional<Pose> still_pose;         ///< tracked pose the part has kept within the moving thresholds...
+  std::int64_t moved_utime = -1;          ///< ...since this frame (-1: not since tracking began)
 };
 
 namespace {
@@ -451,14 +453,37 @@ std::optional<Plan> CellPlanner::step() {
       continue;
     }
 
+    std::string undercut_ended;
     // 3b. Undercut (vacuum.undercut): before the air blast, vacuum loops until the powder beside
     //     the part is down to the loops' floor below its bottom (one layer of slack: the powder
     //     next to the nozzle stays a little higher than under it). Once the air blast has begun
-    //     it goes on (the measured height hovers about the threshold) until phase 3 ends.
-    if (phase != Phase::kAirBlast) s.blasting = false;
+    //     it goes on (the measured height hovers about the threshold) until phase 3 ends. Loops
+    //     that no longer lower it (the nozzle cannot reach all round a toppled part: the measured
+    //     height stayed a few mm over the threshold for good, and the air blast never began) give
+    //     way to the air blast after kUndercutStalls in a row, each less than half a layer lower.
+    constexpr int kUndercutStalls = 3;
+    if (phase != Phase::kAirBlast) {
+      s.blasting = false;
+      s.undercut_powder = std::nan("");
+      s.undercut_stalls = 0;
+    }
     if (phase == Phase::kAirBlast && !s.blasting && config_.vacuum.undercut > 0 && std::isfinite(s.powder) &&
-        s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth)
-      phase = Phase::kVacuumTracked;
+        s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth) {
+      if (!continuing) {  // a new loop is due: did the last one lower the powder?
+        const bool stalled = s.powder > s.undercut_powder - 0.5 * config_.vacuum.layer_depth;
+        s.undercut_stalls = stalled ? s.undercut_stalls + 1 : 0;
+        s.undercut_powder = s.powder;
+      }
+      if (s.undercut_stalls < kUndercutStalls) {
+        phase = Phase::kVacuumTracked;
+      } else {
+        char buf[160];
+        std::snprintf(buf, sizeof buf,
+                      "; undercut ended: %d loops lowered the powder by under %.1f mm each (at %.3f m)",
+                      kUndercutStalls, 500 * config_.vacuum.layer_depth, s.powder);
+        undercut_ended = buf;
+      }
+    }
 
     // 4. Plan only when something changed: a finished cycle, a new phase, a moved pose.
     const bool same = continuing && phase == active_phase_;
@@ -507,6 +532,7 @@ std::optional<Plan> CellPlanner::step() {
     if (!blocked.empty())
       plan.reason = "another part in the cycle's way (" + blocked + "), planned anew: " + plan.reason;
     if (dropped) plan.reason = "the driver dropped the cycle away from its start, planned anew: " + plan.reason;
+    plan.reason += undercut_ended;
     if (!plan.hasWaypoints()) {
       s.failed_utime = newest_utime_;
       report.note = plan.reason;

@@ -227,6 +227,30 @@ TEST_F(CellTest, UndercutVacuumsBelowThePartBeforeTheAirBlast) {
   EXPECT_TRUE(withTool(*more, Tool::kVacuum).empty());
 }
 
+// Undercut loops that no longer lower the powder (the nozzle cannot reach all round a toppled
+// part) give way to the air blast after three in a row; in the toppling-pipe cell the measured
+// height once stayed a few mm over the threshold for good, and the air blast never began.
+TEST_F(CellTest, UndercutThatNoLongerLowersThePowderGivesWayToTheAirBlast) {
+  T_left = makePoseRpy({-0.08, 0.0, 0.06}, 0, 0, 0.1);  // floor 0.01 m, air blast from 0.015 m
+  config.vacuum.undercut = 0.02;
+  SetUp();
+  std::optional<Plan> p;
+  // 30 mm, then 12 mm lower; then 1, -0.5 (higher) and 0.7 mm lower: three loops that stalled.
+  for (const double powder : {0.030, 0.018, 0.017, 0.0175, 0.0168}) {
+    if (p) robotAt(*p, static_cast<int>(p->waypoints.size()));
+    utime += 33000;
+    frame("left", T_left, Phase::kAirBlast, powder);
+    p = planner->step();
+    ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
+    if (powder != 0.0168) {
+      EXPECT_EQ(p->phase, Phase::kVacuumTracked) << "at " << powder << ": " << p->reason;
+    }
+  }
+  EXPECT_EQ(p->phase, Phase::kAirBlast) << p->reason;
+  EXPECT_GT(withTool(*p, Tool::kAir).size(), 10u);
+  EXPECT_NE(p->reason.find("undercut ended: 3 loops"), std::string::npos) << p->reason;
+}
+
 TEST_F(CellTest, MovedPartMovesThePathWithoutAJump) {
   frame("left", T_left, Phase::kVacuumTracked, 0.04);
   auto p1 = planner->step();

@@ -47,13 +47,20 @@ int main(int argc, char** argv) {
     auto append = [&out](std::vector<progress_t> more) {
       for (auto& m : more) out.push_back(std::move(m));
     };
+    // An input not used (a bad POINTS, a PART_POSE the node refused) is said in the heartbeat for
+    // 2 s: the loop passes far more often than the heartbeat goes out.
     std::string input_problem;
+    std::int64_t input_problem_us = 0, input_problems_seen = 0;
+    auto noteProblem = [&](std::string why) {
+      input_problem = std::move(why);
+      input_problem_us = node::steadyUtime();
+    };
     bus.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& msg, const std::string&) {
       std::string why;
       std::optional<Cloud> cloud = node::decodeCloud(msg, &why);
       if (!cloud) {
         heartbeat.addDropped();
-        input_problem = "bad POINTS frame: " + why;
+        noteProblem("bad POINTS frame: " + why);
         return;
       }
       const std::int64_t duplicates = logic.stats().duplicate_frames;
@@ -92,13 +99,17 @@ int main(int argc, char** argv) {
       heartbeat.setStat("invalid_poses", static_cast<double>(s.invalid_poses));
       heartbeat.setStat("duplicate_frames", static_cast<double>(s.duplicate_frames));
       heartbeat.setStat("compute_ms", s.last_compute_ms);
+      if (s.input_problems != input_problems_seen) {
+        input_problems_seen = s.input_problems;
+        noteProblem(s.last_problem);
+      }
+      const bool problem = !input_problem.empty() && node::steadyUtime() - input_problem_us < 2'000'000;
       if (!problems.empty())
         heartbeat.setState(heartbeat_t::DEGRADED, problems.begin()->first + ": " + problems.begin()->second);
-      else if (!input_problem.empty())
+      else if (problem)
         heartbeat.setState(heartbeat_t::DEGRADED, input_problem);
       else
         heartbeat.setState(heartbeat_t::RUNNING);
-      input_problem.clear();
       heartbeat.tick();
     }
     heartbeat.setState(heartbeat_t::STOPPING);

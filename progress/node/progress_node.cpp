@@ -171,12 +171,14 @@ std::vector<progress_t> ProgressNode::onPoints(std::int64_t utime, Cloud cloud, 
   std::vector<progress_t> out;
   if (!utimeInRange(utime)) {
     stats_.last_problem = "POINTS with " + utimeOutOfRange(utime) + ": not used";
+    ++stats_.input_problems;
     return out;
   }
   for (const Frame& f : pending_)
     if (f.utime == utime) {  // received twice: each (frame, part) is estimated once
       ++stats_.duplicate_frames;
       stats_.last_problem = "POINTS utime " + std::to_string(utime) + " received again: not used";
+      ++stats_.input_problems;
       return out;
     }
   Frame frame{utime, now_us, std::move(cloud), {}};
@@ -199,6 +201,7 @@ std::vector<progress_t> ProgressNode::onPose(const part_pose_t& msg) {
   if (it == parts_.end()) {
     ++stats_.unknown_parts;
     stats_.last_problem = "PART_POSE for unknown part '" + msg.part + "'";
+    ++stats_.input_problems;
     return out;
   }
   Part& part = it->second;
@@ -211,6 +214,7 @@ std::vector<progress_t> ProgressNode::onPose(const part_pose_t& msg) {
   if (!pose) {
     ++stats_.invalid_poses;
     stats_.last_problem = "invalid PART_POSE for '" + msg.part + "': " + why;
+    ++stats_.input_problems;
     return out;
   }
   part.poses.push_back({msg.utime, *pose});

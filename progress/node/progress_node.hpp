@@ -64,6 +64,7 @@ class ProgressNode {
     std::int64_t invalid_poses = 0;     ///< PART_POSE with NaN / non-unit quaternion, or a utime outside 0 to 2^53 us
     std::int64_t duplicate_frames = 0;  ///< POINTS with the utime of a frame still pending: not used
     double last_compute_ms = 0;         ///< estimator time of the last estimate
+    std::int64_t input_problems = 0;    ///< inputs not used (bad utime, unknown part, invalid pose, repeated frame)
     std::string last_problem;           ///< the last non-OK reason, for the heartbeat
   };
   const Stats& stats() const { return stats_; }

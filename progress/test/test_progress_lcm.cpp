@@ -92,6 +92,21 @@ TEST_F(ProgressProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   EXPECT_EQ(last_heartbeat.state, +heartbeat_t::DEGRADED);
   EXPECT_NE(last_heartbeat.state_reason.find("cube"), std::string::npos) << last_heartbeat.state_reason;
 
+  // 3b. A good frame again (no part problem left), then a PART_POSE for a part not in the cell:
+  //     said in the heartbeats that follow (it once lasted one pass of the loop, about 10 ms, and
+  //     a heartbeat seldom went out in it).
+  bus.publish("POINTS", node::encodeCloud(cubeScene(0.05), 20'100'000));
+  bus.publish("PART_POSE", poseMsg(20'100'000, init));
+  ASSERT_TRUE(bus.spinUntil([&] { return got.size() >= 3; }, 5));
+  EXPECT_EQ(got[2].status, +progress_t::OK) << got[2].status_reason;
+  part_pose_t stranger = poseMsg(20'200'000, init);
+  stranger.part = "bunny";
+  bus.publish("PART_POSE", stranger);
+  const int after = heartbeats;
+  ASSERT_TRUE(bus.spinUntil([&] { return heartbeats >= after + 2; }, 5));
+  EXPECT_EQ(last_heartbeat.state, +heartbeat_t::DEGRADED);
+  EXPECT_NE(last_heartbeat.state_reason.find("unknown part 'bunny'"), std::string::npos) << last_heartbeat.state_reason;
+
   // 4. SIGTERM: a clean exit.
   EXPECT_EQ(process_.terminate(), 0);
 }
