@@ -89,7 +89,11 @@ FrameError CameraProxy::addDepth(const DepthImage& image, const PinholeCamera& c
     storage = std::move(spare_.back());
     spare_.pop_back();
   }
-  return accept(it->second(image, camera, std::move(storage)), camera.name, image.utime, arrival);
+  const FrameError result = accept(it->second(image, camera, std::move(storage)), camera.name, image.utime, arrival);
+  // A name the merger did not take (its frame refused) keeps no tables: the camera cap counts the
+  // merger's cameras, and refused frames under ever new names once grew this map without bound.
+  if (!merger_.knows(camera.name)) deprojectors_.erase(camera.name);
+  return result;
 }
 
 FrameError CameraProxy::addCameraPoints(const Cloud& camera_points, std::int64_t utime, const PinholeCamera& camera,

@@ -64,6 +64,14 @@ FrameError checkDepthImage(const DepthImage& image, const PinholeCamera& camera)
   const Eigen::Vector4d k(camera.fx, camera.fy, camera.cx, camera.cy);
   if (!k.allFinite() || camera.fx <= 0 || camera.fy <= 0)
     return fail(FrameStatus::kBadHeader, camera.name, "intrinsics (fx, fy, cx, cy) are not finite and positive");
+  // Every pixel's ray within 89.9 deg of the optical axis: finite, tiny fx or far cx gave rays of
+  // inf or NaN, and the Deprojector's range search then stepped through 65535 counts a pixel.
+  constexpr double kMaxSlope = 1000;
+  for (const double slope : {camera.cx / camera.fx, (image.width - 1 - camera.cx) / camera.fx, camera.cy / camera.fy,
+                             (image.height - 1 - camera.cy) / camera.fy})
+    if (!(std::abs(slope) <= kMaxSlope))
+      return fail(FrameStatus::kBadHeader, camera.name,
+                  "intrinsics (fx, fy, cx, cy) put a corner pixel's ray more than 89.9 deg off the optical axis");
   if (!std::isfinite(image.depth_unit) || image.depth_unit <= 0)
     return fail(FrameStatus::kBadHeader, camera.name, "depth_unit must be a finite positive number of metres");
   return checkPoseAndRange(camera);

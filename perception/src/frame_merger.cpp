@@ -98,8 +98,9 @@ void FrameMerger::restartIfClockWentBack(std::int64_t arrival) {
   int back_frames = 0;
   for (const auto& [name, c] : cameras_) {
     const bool heard = c.last_arrival > 0 && arrival - c.last_arrival <= micros(config_.silent_after);
-    if (heard && c.back_frames == 0) return;
-    if (c.back_frames > 0) newest_back = std::max(newest_back, c.back_utime);
+    if (!heard) continue;  // what a silent camera sent back then confirms nothing now
+    if (c.back_frames == 0) return;
+    newest_back = std::max(newest_back, c.back_utime);
     back_frames += c.back_frames;
   }
   if (back_frames < 2) return;

@@ -154,6 +154,25 @@ TEST(CameraProxy, CameraNamesPastTheMostTakenAreRefused) {
   EXPECT_EQ(proxy.health(t).size(), CameraProxy::kMaxCameras);
   EXPECT_TRUE(proxy.addDepth(render(s, rig[1], t), rig[1], t).ok());
   EXPECT_EQ(proxy.counters().by_status[static_cast<int>(FrameStatus::kBadHeader)], 2);
+  EXPECT_EQ(proxy.deprojectionTables(), 15u);  // RIGHT and CAM2..CAM15; LEFT sent nothing
+}
+
+// Frames refused before the merger takes their camera (no valid return here) keep no tables under
+// their names: such frames under ever new names once grew them by about 2.5 MB a 640x480 name.
+TEST(CameraProxy, RefusedFramesOfNewNamesKeepNoTables) {
+  auto rig = defaultRig(80, 60);
+  const Scene s = scene();
+  CameraProxy proxy(PerceptionConfig{}, kBox, {"LEFT", "RIGHT"});
+  PinholeCamera other = rig[0];
+  DepthImage blind = render(s, other, kT0);
+  std::fill(blind.depth.begin(), blind.depth.end(), 0);
+  for (int k = 0; k < 100; ++k) {
+    other.name = "CAM" + std::to_string(k);
+    EXPECT_EQ(proxy.addDepth(blind, other, kT0).status, FrameStatus::kNoValidReturns) << other.name;
+  }
+  EXPECT_EQ(proxy.deprojectionTables(), 0u);
+  EXPECT_TRUE(proxy.addDepth(render(s, rig[0], kT0), rig[0], kT0).ok());
+  EXPECT_EQ(proxy.deprojectionTables(), 1u);
 }
 
 // A frame stamped before 0 or past 2^53 us (a garbage message that decodes) is refused, saying

@@ -118,6 +118,15 @@ TEST(Deproject, CorruptFramesGiveClearErrors) {
   cam = handCamera();
   cam.fx = std::nan("");
   EXPECT_EQ(deproject(im, cam, kEverywhere).error.status, FrameStatus::kBadHeader);
+  // Finite but absurd: rays of inf or NaN (the Deprojector once searched 65535 counts a pixel).
+  for (const auto& [fx, cx] : {std::pair{1e-310, 1.5}, std::pair{0.5, 1e308}, std::pair{1e-3, 1.5}}) {
+    cam = handCamera();
+    cam.fx = fx;
+    cam.cx = cx;
+    out = deproject(im, cam, kEverywhere);
+    EXPECT_EQ(out.error.status, FrameStatus::kBadHeader) << fx << " " << cx;
+    EXPECT_NE(out.error.message.find("89.9 deg off the optical axis"), std::string::npos) << out.error.message;
+  }
   im.depth_unit = 0;
   EXPECT_EQ(deproject(im, handCamera(), kEverywhere).error.status, FrameStatus::kBadHeader);
   cam = handCamera();

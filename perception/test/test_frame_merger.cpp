@@ -247,6 +247,37 @@ TEST(FrameMerger, OneFarPastFrameOfTheOnlyCameraIsABadStampTwoAreARestart) {
   EXPECT_EQ(c.out[0].utime, back + 66 * kMs);
 }
 
+// Frames a camera sent from the past before it fell silent do not confirm another camera's one
+// far-past frame: that one is a bad stamp (they once made it a restart, and the next good frame
+// was then refused as far ahead).
+TEST(FrameMerger, ASilentCamerasOldFramesDoNotMakeOneBadStampARestart) {
+  FrameMerger m(config(), {"LEFT", "RIGHT"});
+  std::int64_t now = kT0;
+  auto both = [&](int steps) {
+    for (int i = 0; i < steps; ++i, now += 33 * kMs) {
+      ASSERT_TRUE(m.add(frame("LEFT", now), now).ok());
+      ASSERT_TRUE(m.add(frame("RIGHT", now), now).ok());
+      m.poll(now);
+    }
+  };
+  ASSERT_NO_FATAL_FAILURE(both(3));
+  // RIGHT restarts with its clock a minute behind, sends three frames and falls silent.
+  for (int i = 0; i < 3; ++i, now += 33 * kMs) {
+    EXPECT_EQ(m.add(frame("RIGHT", now - 60000 * kMs), now).status, FrameStatus::kLate);
+    ASSERT_TRUE(m.add(frame("LEFT", now), now).ok());
+    m.poll(now);
+  }
+  for (int i = 0; i < 45; ++i, now += 33 * kMs) {  // 1.5 s of LEFT alone
+    ASSERT_TRUE(m.add(frame("LEFT", now), now).ok());
+    m.poll(now);
+  }
+  EXPECT_EQ(m.add(frame("LEFT", now - 60000 * kMs), now).status, FrameStatus::kLate);
+  EXPECT_EQ(m.restarts(), 0) << m.lastRestart();
+  now += 33 * kMs;
+  const FrameError next = m.add(frame("LEFT", now), now);
+  EXPECT_TRUE(next.ok()) << next.message;
+}
+
 TEST(FrameMerger, OneFarAheadFrameIsRefusedAndChangesNothing) {
   // LEFT's frame of step 3 stamped a year ahead: refused, and the steps go on as if it had been
   // lost; no camera turns stale, nothing starts over.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -30,8 +31,16 @@ std::string saveTrackerState(const std::string& path, const std::map<std::string
 
 std::map<std::string, SavedPose> loadTrackerState(const std::string& path) {
   std::map<std::string, SavedPose> poses;
+  // None yet: a first start. Anything else that cannot be read (a directory, no permission) is
+  // said, not taken for a first start.
+  std::error_code ec;
+  const auto type = std::filesystem::status(path, ec).type();
+  if (type == std::filesystem::file_type::not_found) return poses;
+  if (type != std::filesystem::file_type::regular)
+    throw std::runtime_error(path + ": not a regular file" + (ec ? " (" + ec.message() + ")" : std::string()));
+  errno = 0;
   std::ifstream in(path);
-  if (!in) return poses;
+  if (!in) throw std::runtime_error(path + ": cannot be read: " + std::strerror(errno));
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
     if (line.empty()) continue;

@@ -342,11 +342,12 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
     r.template_updated = true;
   }
   // A template too small to register (the part was out of view when it was derived) is
-  // re-derived before ICP, in every method: otherwise Eq. 1 could never fire again.
-  if (icp_points_.size() < static_cast<std::size_t>(config_.icp.min_correspondences) &&
-      config_.method != Method::kVanilla) {
+  // re-derived before ICP, in every method: otherwise Eq. 1 could never fire again. Vanilla's is
+  // the whole model, set here for a part resumed after a restart (it skipped lines 3-6).
+  if (icp_points_.size() < static_cast<std::size_t>(config_.icp.min_correspondences)) {
     t0 = Clock::now();
-    setTemplate(deriveTemplate(cad_.points, T_cell_part_, grid, xi_));
+    setTemplate(config_.method == Method::kVanilla ? allIndices(cad_.points.size())
+                                                   : deriveTemplate(cad_.points, T_cell_part_, grid, xi_));
     r.timing.template_ms += msSince(t0);
     last_update_ = {T_cell_part_, eta_};
     r.template_updated = true;

@@ -220,6 +220,21 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
     EXPECT_EQ(std::string(m.status_reason).find("phase 1"), std::string::npos) << m.status_reason;
   }
 
+  // Vanilla ICP resumed too: its template (the whole model) was once set only on leaving Phase 1,
+  // so a resumed part had none and was LOST on every frame.
+  const node::CellConfig vanilla = node::loadCellFromString(s.yaml("{method: vanilla}"));
+  TrackerNode fourth(vanilla, readTrackerOptions(vanilla), saved);
+  for (const part_pose_t& m : feed(fourth, node::encodeCloud(s.frames(1)[0], 8)))
+    EXPECT_EQ(m.status, +part_pose_t::TRACKING) << m.part << ": " << m.status_reason;
+
+  // A path that is not a readable file is said, not taken for a first start.
+  try {
+    loadTrackerState(dir);
+    ADD_FAILURE() << "a directory taken for a state file";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
+
   // A broken file names the file and the line.
   for (const char* bad : {"cube 7 0 0 0 1 0 0\n", "cube 7 0 0 0 2 0 0 0\n", "cube 7 nan 0 0 1 0 0 0\n"}) {
     std::ofstream(path) << "owl 7 0 0 0 1 0 0 0\n" << bad;

@@ -87,6 +87,8 @@ class CameraProxy {
   const std::map<std::string, CameraAgreement>& agreement() const { return agreement_; }
   const Eigen::AlignedBox3d& crop() const { return crop_; }
   const PerceptionConfig& config() const { return config_; }
+  /// Cameras whose deprojection tables are kept (about 8 bytes a pixel each): the merger's only.
+  std::size_t deprojectionTables() const { return deprojectors_.size(); }
 
  private:
   /// Why a frame of this camera is refused by its name (kOk when it is taken).
