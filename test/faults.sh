@@ -77,7 +77,7 @@ hosts:
       - {name: camera, command: depowder-camera, args: [--cell, "\${CELL}"], realtime: 30}
   - name: compute
     processes:
-      - {name: logger, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/run.lcmlog"], realtime: 5}
+      - {name: logger, command: lcm-logger, args: [--quiet, --append, "\${RUN_DIR}/run.lcmlog"], realtime: 5}
       - {name: tracker, command: depowder-tracker, args: [--cell, "\${CELL}", --state, "\${RUN_DIR}/tracker.state"], realtime: 28}
       - {name: progress, command: depowder-progress, args: [--cell, "\${CELL}"], realtime: 26}
       - {name: planner, command: depowder-planner, args: [--cell, "\${CELL}"], realtime: 22}
@@ -89,7 +89,7 @@ hosts:
         ends_run: true
   - name: robot
     processes:
-      - {name: robotlog, command: lcm-logger, args: [--quiet, --force, "\${RUN_DIR}/robot.lcmlog"], realtime: 5}
+      - {name: robotlog, command: lcm-logger, args: [--quiet, --append, "\${RUN_DIR}/robot.lcmlog"], realtime: 5}
       - {name: driver, command: depowder-driver, args: [--cell, "\${CELL}"], realtime: 20, start_delay_s: 0.5}
 YAML
 if [ $hosts -eq 1 ]; then  # every deployment host on the one test host

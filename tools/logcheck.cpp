@@ -199,11 +199,14 @@ int main(int argc, char** argv) {
       const Row& g = it->second;
       const double dt = translationDistance(g.T, w.T), dr = rotationDistanceDeg(g.T, w.T);
       const double deta = std::isnan(w.eta) || std::isnan(g.eta) ? 0 : std::abs(g.eta - w.eta);
+      // A PROGRESS expected and not replayed fails too (it once passed as no difference).
+      const bool no_progress = !std::isnan(w.eta) && std::isnan(g.eta);
       worst_t = std::max(worst_t, dt), worst_r = std::max(worst_r, dr), worst_eta = std::max(worst_eta, deta);
-      if (dt > tol_trans || dr > tol_rot || deta > tol_eta || g.status != w.status) {
+      if (dt > tol_trans || dr > tol_rot || deta > tol_eta || g.status != w.status || no_progress) {
         if (++fails <= 10)
-          std::printf("  frame %lld %s: %.2f mm %.2f deg eta %+.3f status %d (expected %d)\n",
-                      static_cast<long long>(key.first), key.second.c_str(), dt * 1e3, dr, deta, g.status, w.status);
+          std::printf("  frame %lld %s: %.2f mm %.2f deg eta %+.3f status %d (expected %d)%s\n",
+                      static_cast<long long>(key.first), key.second.c_str(), dt * 1e3, dr, deta, g.status, w.status,
+                      no_progress ? ", no PROGRESS" : "");
       }
       const auto* t = truth.at(key.first, key.second);
       if (t && g.status == part_pose_t::TRACKING) {

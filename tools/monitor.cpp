@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -21,6 +22,7 @@
 #include "depowder/clock.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
+#include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/node/heartbeat.hpp"
 #include "depowder/node/shutdown.hpp"
@@ -76,16 +78,19 @@ std::int64_t counter(const std::map<std::string, heartbeat_t>& processes, const 
 
 int usage(const std::string& error = "") {
   if (!error.empty()) std::cerr << "depowder-monitor: " << error << "\n";
-  std::cerr << "usage: depowder-monitor [--parts N] [--timeout S] [--summary FILE.json] [--url URL] [--prefix P]\n"
+  std::cerr << "usage: depowder-monitor [--parts N] [--timeout S] [--summary FILE.json] [--cell FILE] [--url URL] "
+               "[--prefix P]\n"
                "  Exits 0 when every part is done (held 1 s) with no nozzle-part contact; 1 on timeout or\n"
-               "  contact; --parts N waits until N parts have been heard of (default 1).\n";
+               "  contact; --parts N waits until N parts have been heard of (default 1). The bus is the\n"
+               "  cell file's (lcm section; default: the default cell) unless --url / --prefix.\n";
   return error.empty() ? 0 : 2;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string url, prefix, summary_file;
+  std::string cell, summary_file;
+  std::optional<std::string> url, prefix;
   double timeout_s = 600;
   std::size_t expected_parts = 1;
   for (int i = 1; i < argc; ++i) {
@@ -98,6 +103,8 @@ int main(int argc, char** argv) {
       expected_parts = static_cast<std::size_t>(std::max(1, std::atoi(argv[++i])));
     else if (a == "--summary")
       summary_file = argv[++i];
+    else if (a == "--cell")
+      cell = argv[++i];
     else if (a == "--url")
       url = argv[++i];
     else if (a == "--prefix")
@@ -108,7 +115,8 @@ int main(int argc, char** argv) {
 
   try {
     node::installShutdownHandlers();
-    node::Bus bus(url, prefix);
+    const node::LcmConfig lcm = node::toolBus("depowder-monitor", cell, url, prefix);
+    node::Bus bus(lcm.url, lcm.prefix);
     std::map<std::string, PartView> parts;
     std::map<std::string, heartbeat_t> processes;  // latest heartbeat by process name
     robot_state_t robot{};

@@ -6,9 +6,11 @@
 #include <cstdlib>
 #include <iostream>
 #include <map>
+#include <optional>
 
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
+#include "depowder/node/cell.hpp"
 #include "depowder/node/convert.hpp"
 #include "depowder/node/heartbeat.hpp"
 #include "depowder/node/shutdown.hpp"
@@ -41,21 +43,24 @@ const char* stateName(int s) {
 
 int usage(const char* error = nullptr) {
   if (error) std::cerr << "depowder-status: " << error << "\n";
-  std::cerr << "usage: depowder-status [--wait-for PROCESS] [--timeout S] [--once] [--url URL] [--prefix P]\n"
-               "  Prints one line per process heard on HEARTBEAT, refreshed every second: age of its last\n"
-               "  heartbeat, counters, CPU, memory, and clock_ms, its host's clock less this host's (a\n"
-               "  difference beyond 100 ms is flagged: plan ages in the driver need agreeing clocks). Says\n"
-               "  so when the processes' cell files differ in the sections they share (box, cameras, parts),\n"
-               "  and when two of one cell process run (a second cell on the same LAN and prefix).\n"
-               "  --wait-for P  exit 0 as soon as a heartbeat from process P arrives (1 on timeout)\n"
-               "  --once        print the table once after --timeout seconds (default 2) and exit\n";
+  std::cerr
+      << "usage: depowder-status [--wait-for PROCESS] [--timeout S] [--once] [--cell FILE] [--url URL] [--prefix P]\n"
+         "  Prints one line per process heard on HEARTBEAT, refreshed every second: age of its last\n"
+         "  heartbeat, counters, CPU, memory, and clock_ms, its host's clock less this host's (a\n"
+         "  difference beyond 100 ms is flagged: plan ages in the driver need agreeing clocks). Says\n"
+         "  so when the processes' cell files differ in the sections they share (box, cameras, parts),\n"
+         "  and when two of one cell process run (a second cell on the same LAN and prefix).\n"
+         "  --wait-for P  exit 0 as soon as a heartbeat from process P arrives (1 on timeout)\n"
+         "  --once        print the table once after --timeout seconds (default 2) and exit\n"
+         "  The bus is the cell file's (lcm section; default: the default cell) unless --url / --prefix.\n";
   return error ? 2 : 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string url, prefix, wait_for;
+  std::string cell, wait_for;
+  std::optional<std::string> url, prefix;
   double timeout = -1;
   bool once = false;
   for (int i = 1; i < argc; ++i) {
@@ -70,6 +75,8 @@ int main(int argc, char** argv) {
       wait_for = argv[++i];
     else if (a == "--timeout")
       timeout = std::atof(argv[++i]);
+    else if (a == "--cell")
+      cell = argv[++i];
     else if (a == "--url")
       url = argv[++i];
     else if (a == "--prefix")
@@ -80,7 +87,8 @@ int main(int argc, char** argv) {
   if (once && timeout < 0) timeout = 2;
   try {
     depowder::node::installShutdownHandlers();
-    depowder::node::Bus bus(url, prefix);
+    const depowder::node::LcmConfig lcm = depowder::node::toolBus("depowder-status", cell, url, prefix);
+    depowder::node::Bus bus(lcm.url, lcm.prefix);
     std::map<std::string, Heard> last;  // by "process@host:pid"
     const Heard* seen = nullptr;
     bus.subscribe<depowder::heartbeat_t>("HEARTBEAT", [&](const depowder::heartbeat_t& h, const std::string&) {

@@ -136,3 +136,26 @@ TEST(Config, ToolFromThePlannerAndRobotSections) {
     EXPECT_NE(std::string(e.what()).find("planner.nozzle.radius"), std::string::npos) << e.what();
   }
 }
+
+// The tools that only talk on the bus take it from the cell file's lcm section, read alone (a
+// broken part section does not keep an ESTOP off the bus); --url / --prefix win. They once used
+// the command line only, so an ESTOP for a cell with a prefix went to another channel.
+TEST(Config, ToolBusIsTheCellFilesUnlessGiven) {
+  char dir_template[] = "/tmp/depowder_toolbus_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::filesystem::path dir(dir_template);
+  const std::string cell = (dir / "cell.yaml").string();
+  std::ofstream(cell) << "lcm: {prefix: B_, url: \"udpm://239.255.76.68:7667?ttl=0\"}\n"
+                      << "parts: [{name: broken}]\n";  // no mesh: loadCell would refuse it
+  LcmConfig lcm = toolBus("test", cell, std::nullopt, std::nullopt);
+  EXPECT_EQ(lcm.prefix, "B_");
+  EXPECT_EQ(lcm.url, "udpm://239.255.76.68:7667?ttl=0");
+  lcm = toolBus("test", cell, std::string("udpm://239.255.76.69:7667?ttl=0"), std::string(""));
+  EXPECT_EQ(lcm.prefix, "");
+  EXPECT_EQ(lcm.url, "udpm://239.255.76.69:7667?ttl=0");
+  // A cell file given that cannot be read, or with a wrong key in its lcm section: an error.
+  EXPECT_THROW(toolBus("test", (dir / "none.yaml").string(), std::nullopt, std::nullopt), ConfigError);
+  std::ofstream(cell) << "lcm: {prefx: B_}\n";
+  EXPECT_THROW(toolBus("test", cell, std::nullopt, std::nullopt), ConfigError);
+  std::filesystem::remove_all(dir);
+}

@@ -270,7 +270,10 @@ bool Driver::cycle() {
   }
   if (estop_latched_) return false;
   if (estop_handled_) {
-    // Reset: re-enable where the arm is, without a plan.
+    // Reset: re-enable where the arm is, without a plan; after a failed attempt (the arm outside
+    // its limits, the controller refusing), the next one reconnect_period later.
+    const std::int64_t now = monoNs();
+    if (now < next_connect_ns_) return false;
     {
       std::lock_guard<PiMutex> lock(mutex_);
       have_plan_ = false;
@@ -278,8 +281,12 @@ bool Driver::cycle() {
       status_.plan_id = -1;
       status_.waypoint_index = -1;
     }
+    if (!enableFromCurrentPosition()) {
+      next_connect_ns_ = now + static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9);
+      return false;
+    }
     // A new ESTOP while re-enabling leaves it EStopped (enableFromCurrentPosition said so).
-    if (!enableFromCurrentPosition() || estop_latched_) return false;
+    if (estop_latched_) return false;
     setMode(DriverMode::Idle, "ESTOP reset");
     return false;
   }

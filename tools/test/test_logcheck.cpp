@@ -22,7 +22,8 @@ constexpr std::int64_t kUtime0 = 1'000'000;
 // What depowder-tracker and depowder-progress publish for a cube sliding 1 mm a frame: PROGRESS
 // for every frame, PART_POSE for all but `skipped`; frame `off` 5 mm away from the rest's path;
 // after frame `corrupt` a PART_POSE whose part name has a length of 0 on the wire.
-void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int off = -1, int corrupt = -1) {
+void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int off = -1, int corrupt = -1,
+                 bool progress = true) {
   lcm::LogFile log(path, "w");
   ASSERT_TRUE(log.good()) << path;
   for (int f = 0; f < kFrames; ++f) {
@@ -34,8 +35,10 @@ void writeOutput(const std::string& path, const std::set<int>& skipped = {}, int
       pose.eta = 0.5;
       ASSERT_EQ(testutil::writeMessage(log, "PART_POSE", pose, utime + 5'000), 0);
     }
-    ASSERT_EQ(testutil::writeMessage(log, "PROGRESS", testutil::vacuumProgress("cube", utime, T, 0.5), utime + 6'000),
-              0);
+    if (progress) {
+      ASSERT_EQ(testutil::writeMessage(log, "PROGRESS", testutil::vacuumProgress("cube", utime, T, 0.5), utime + 6'000),
+                0);
+    }
     if (f == corrupt) {
       std::vector<std::uint8_t> data = testutil::encoded(testutil::trackingPose("cube", utime, T));
       std::fill(data.begin() + 16, data.begin() + 20, 0);  // after the hash and utime: part's length
@@ -100,6 +103,16 @@ TEST_F(LogCheck, ACorruptMessageIsSkipped) {
   EXPECT_EQ(compare(path("corrupt.lcmlog"), &out), 0) << out;
   EXPECT_NE(out.find("1 undecodable or invalid messages"), std::string::npos) << out;
   EXPECT_NE(out.find("matched 50 (100.0 %)"), std::string::npos) << out;
+}
+
+// A replay without PROGRESS (the progress estimator died, or stamped its own time) fails: a
+// missing eta once counted as no difference, and the replay passed.
+TEST_F(LogCheck, AReplayWithoutProgressFails) {
+  writeOutput(path("no_progress.lcmlog"), {}, -1, -1, false);
+  std::string out;
+  EXPECT_EQ(compare(path("no_progress.lcmlog"), &out), 1) << out;
+  EXPECT_NE(out.find(", no PROGRESS"), std::string::npos) << out;
+  EXPECT_NE(out.find("50 frames beyond tolerance"), std::string::npos) << out;
 }
 
 TEST_F(LogCheck, APoseBeyondTheToleranceFails) {

@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cstdlib>
 #include <fstream>
+#include <iostream>
 #include <iterator>
 #include <set>
 
@@ -137,6 +138,25 @@ ToolConfig readTool(const CellConfig& cell) {
 std::string defaultCellPath() {
   if (const char* env = std::getenv("DEPOWDER_CELL")) return env;
   return DEPOWDER_DEFAULT_CELL;
+}
+
+LcmConfig toolBus(const std::string& tool, const std::string& cell, const std::optional<std::string>& url,
+                  const std::optional<std::string>& prefix) {
+  LcmConfig lcm;
+  if (!url || !prefix) {
+    try {
+      const YamlReader root = YamlReader::loadFile(cell.empty() ? defaultCellPath() : cell);
+      const YamlReader section = root.child("lcm");
+      section.read("url", lcm.url);
+      section.read("prefix", lcm.prefix);
+      section.finish();
+    } catch (const ConfigError& e) {
+      if (!cell.empty()) throw;
+      std::cerr << tool << ": " << e.what() << "; on the default bus, without a prefix" << std::endl;
+      lcm = {};
+    }
+  }
+  return {url.value_or(lcm.url), prefix.value_or(lcm.prefix)};
 }
 
 double cellModelId(const CellConfig& cell) {

@@ -409,6 +409,31 @@ TEST(DriverEmulator, EstopHaltsAtOnceAndNeedsAReset) {
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
 }
 
+// A reset that cannot re-enable (the arm was moved outside the configured limits while stopped)
+// is tried again every reconnect_period, not on every 8 ms cycle, and succeeds once the arm is back.
+TEST(DriverEmulator, AFailedResetIsRetriedEveryReconnectPeriod) {
+  const Joints home = ArmConfig().q_home;
+  Rig rig([&](DriverConfig& c) { c.arm.q_max[0] = home[0] + 0.05; });
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  rig.driver().estop(true, "test");
+  ASSERT_TRUE(rig.waitMode(DriverMode::EStopped, 1.0));
+  ASSERT_TRUE(rig.waitFor([&] { return !rig.emu().joints().motor_on; }, 1.0));
+  Joints outside = home;
+  outside[0] = home[0] + 0.1;
+  ASSERT_TRUE(rig.emu().setJoints(outside));
+  rig.driver().estop(false, "reset");
+  ASSERT_TRUE(rig.waitMode(DriverMode::Fault, 2.0)) << rig.driver().status().reason;
+  EXPECT_NE(rig.driver().status().reason.find("J1 at"), std::string::npos) << rig.driver().status().reason;
+  const std::int64_t before = rig.emu().stats().packets;
+  // Five periods of 0.1 s: about six attempts (ClearError and CurJnt, and the first one's release
+  // of the arm); on every cycle, about 60.
+  std::this_thread::sleep_for(500ms);
+  EXPECT_LE(rig.emu().stats().packets - before, 20);
+  ASSERT_TRUE(rig.emu().setJoints(home));
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 2.0)) << rig.driver().status().reason;
+  EXPECT_EQ(rig.emu().joints().q, home);
+}
+
 TEST(DriverEmulator, LostConnectionResumesWithoutAJump) {
   Rig rig;
   ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));

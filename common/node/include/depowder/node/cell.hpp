@@ -3,6 +3,7 @@
 // planner, robot, sim, perception) is read by that module's executable from `root`.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -102,5 +103,12 @@ using depowder::lookAt;  ///< camera pose at a position looking at a target (geo
 
 /// Default config file: $DEPOWDER_CELL, else config/cell.yaml of the source tree.
 std::string defaultCellPath();
+
+/// The bus of a tool that only talks on it (depowder-estop, -monitor, -status): `url` and `prefix`
+/// as given, else the `lcm` section of `cell` (read alone: a broken part or camera section cannot
+/// keep an ESTOP off the bus), else of defaultCellPath(). A `cell` given that cannot be read throws
+/// ConfigError; the default one is said on stderr (prefixed by `tool`) and the bus is the default.
+LcmConfig toolBus(const std::string& tool, const std::string& cell, const std::optional<std::string>& url,
+                  const std::optional<std::string>& prefix);
 
 }  // namespace depowder::node
