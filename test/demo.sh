@@ -49,7 +49,8 @@ awk -v n="$late" -v s="$(value elapsed_s)" 'BEGIN { exit !(n <= s / 10) }' ||
 # and 0.05 of eta, several times what the runs in the README measured.
 bad=$(awk -F'[:,}]' '/"part":/ {
     for (i = 1; i < NF; i++) { k = $i; gsub(/[ "{]/, "", k); v[k] = $(i + 1) }
-    if (v["rot_err_deg"] + 0 > 5 || v["trans_err_cm"] + 0 > 0.5 || (v["eta"] - v["true_eta"]) ^ 2 > 0.05 ^ 2)
+    if (v["rot_err_deg"] ~ /null/ || v["trans_err_cm"] ~ /null/ || v["eta"] ~ /null/ || v["true_eta"] ~ /null/ ||
+        v["rot_err_deg"] + 0 > 5 || v["trans_err_cm"] + 0 > 0.5 || (v["eta"] - v["true_eta"]) ^ 2 > 0.05 ^ 2)
       print $0
   }' "$summary")
 [ -z "$bad" ] || fail "a part ended off the truth (limits 5 deg, 0.5 cm, eta 0.05): $bad"

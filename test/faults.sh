@@ -83,7 +83,7 @@ hosts:
       - {name: planner, command: depowder-planner, args: [--cell, "\${CELL}"], realtime: 22}
       - name: monitor
         command: depowder-monitor
-        args: [--parts, "1", --timeout, "420", --summary, "\${RUN_DIR}/summary.json"]
+        args: [--cell, "\${CELL}", --parts, "1", --timeout, "420", --summary, "\${RUN_DIR}/summary.json"]
         realtime: 20
         restart: never
         ends_run: true
