@@ -107,8 +107,10 @@ progress_t ProgressNode::process(Frame& frame, Part& part, const Pose* pose, con
   const ProgressEstimate e =
       estimateProgress(transformed(part.cad, *pose), frame.cloud, part.config.xi, options_.estimator);
   stats_.last_compute_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  msg.h_max = e.h_max;
-  msg.h_min = e.h_min;
+  if (e.h_max > e.h_min) {  // computed (an estimate that stopped before them leaves 0 and 0: NaN here)
+    msg.h_max = e.h_max;
+    msg.h_min = e.h_min;
+  }
   switch (e.status) {
     case Status::kOk:
       msg.status = progress_t::OK;
@@ -119,6 +121,7 @@ progress_t ProgressNode::process(Frame& frame, Part& part, const Pose* pose, con
       break;
     case Status::kNoPose:
       msg.status = progress_t::NO_POSE;
+      ++stats_.no_pose;
       break;
     case Status::kNoPoints:
       msg.status = progress_t::NO_POINTS;

@@ -189,6 +189,8 @@ TEST_F(NodeTest, BadInputsAreCountedAndReported) {
   auto out = n.onPose(poseMsg(5000, kInit));
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].status, +progress_t::NO_POINTS);
+  // Heights not computed are NaN, not 0 (what the estimate left when it stopped before them).
+  EXPECT_TRUE(std::isnan(out[0].h_max) && std::isnan(out[0].h_min)) << out[0].h_max << " " << out[0].h_min;
 
   // Powder only far away: no contour, eta held at its previous value.
   n.onPoints(6000, cubeScene(0.05), 0);
