@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "depowder/clock.hpp"
+#include "depowder/eval/json.hpp"
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/cell.hpp"
@@ -76,32 +77,10 @@ std::int64_t counter(const std::map<std::string, heartbeat_t>& processes, const 
   return std::isnan(v) ? -1 : static_cast<std::int64_t>(v);
 }
 
-// A number in summary.json: null where it is not known (NaN: no truth on a real cell, no pose, no
-// latency measured); `<<` once wrote "nan", which is not JSON.
-struct Json {
-  double v;
-};
-std::ostream& operator<<(std::ostream& out, Json n) {
-  if (std::isfinite(n.v)) return out << n.v;
-  return out << "null";
-}
-// A string in summary.json (a part or process name from the bus may hold anything).
-std::string quoted(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
+// A value in summary.json, written by the evaluation's JSON writer: null where a number is not
+// known (NaN: no truth on a real cell, no pose, no latency measured; `<<` once wrote "nan", which
+// is not JSON), and a name from the bus escaped.
+std::string jsonValue(const eval::Json& value) { return value.dump(0); }
 
 int usage(const std::string& error = "") {
   if (!error.empty()) std::cerr << "depowder-monitor: " << error << "\n";
@@ -278,9 +257,10 @@ int main(int argc, char** argv) {
       std::printf("  %-10s phase %-24s eta %5.1f%%  true eta %5.1f%%  pose error %.2f deg %.2f cm  (%s)\n",
                   name.c_str(), phaseName(p.progress.phase), 100 * p.progress.eta, 100 * p.truth.eta, rot, trans,
                   trackName(p.pose.status));
-      json << (first ? "\n" : ",\n") << "    {\"part\": " << quoted(name) << ", \"phase\": " << int(p.progress.phase)
-           << ", \"eta\": " << Json{p.progress.eta} << ", \"true_eta\": " << Json{p.has_truth ? p.truth.eta : NAN}
-           << ", \"rot_err_deg\": " << Json{rot} << ", \"trans_err_cm\": " << Json{trans} << "}";
+      json << (first ? "\n" : ",\n") << "    {\"part\": " << jsonValue(name) << ", \"phase\": " << int(p.progress.phase)
+           << ", \"eta\": " << jsonValue(p.progress.eta)
+           << ", \"true_eta\": " << jsonValue(p.has_truth ? p.truth.eta : NAN)
+           << ", \"rot_err_deg\": " << jsonValue(rot) << ", \"trans_err_cm\": " << jsonValue(trans) << "}";
       first = false;
     }
     const int contacts = has_truth ? truth.contact_count : -1;
@@ -325,18 +305,18 @@ int main(int argc, char** argv) {
     for (const auto& [key, n] : arm) json << ",\n  \"" << key << "\": " << n;
     json << ",\n  \"points_lost\": " << points_lost << ",\n  \"part_pose_missing\": " << poses_missing
          << ",\n  \"points_seen\": " << points_seen
-         << ",\n  \"pose_latency_ms_p50\": " << Json{percentile(pose_latency_ms, 0.5)}
-         << ",\n  \"pose_latency_ms_p99\": " << Json{percentile(pose_latency_ms, 0.99)}
-         << ",\n  \"plan_latency_ms_p50\": " << Json{percentile(plan_latency_ms, 0.5)}
-         << ",\n  \"plan_latency_ms_p99\": " << Json{percentile(plan_latency_ms, 0.99)}
-         << ",\n  \"progress_latency_ms_p99\": " << Json{percentile(progress_latency_ms, 0.99)}
-         << ",\n  \"new_plan_latency_ms_p99\": " << Json{percentile(new_plan_latency_ms, 0.99)}
+         << ",\n  \"pose_latency_ms_p50\": " << jsonValue(percentile(pose_latency_ms, 0.5))
+         << ",\n  \"pose_latency_ms_p99\": " << jsonValue(percentile(pose_latency_ms, 0.99))
+         << ",\n  \"plan_latency_ms_p50\": " << jsonValue(percentile(plan_latency_ms, 0.5))
+         << ",\n  \"plan_latency_ms_p99\": " << jsonValue(percentile(plan_latency_ms, 0.99))
+         << ",\n  \"progress_latency_ms_p99\": " << jsonValue(percentile(progress_latency_ms, 0.99))
+         << ",\n  \"new_plan_latency_ms_p99\": " << jsonValue(percentile(new_plan_latency_ms, 0.99))
          << ",\n  \"load_average\": [" << load[0] << ", " << load[1] << ", " << load[2] << "],\n  \"processes\": {";
     first = true;
     for (const auto& [name, h] : processes) {
       std::printf("  %-22s %6.1f %9.1f %8lld %7lld\n", name.c_str(), h.cpu_percent, h.peak_rss_kb / 1024.0,
                   static_cast<long long>(h.dropped), static_cast<long long>(h.decode_errors));
-      json << (first ? "\n" : ",\n") << "    " << quoted(name) << ": {\"cpu_percent\": " << Json{h.cpu_percent}
+      json << (first ? "\n" : ",\n") << "    " << jsonValue(name) << ": {\"cpu_percent\": " << jsonValue(h.cpu_percent)
            << ", \"peak_rss_mb\": " << h.peak_rss_kb / 1024.0 << ", \"dropped\": " << h.dropped << "}";
       first = false;
     }

@@ -3,23 +3,12 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 #include "depowder/clock.hpp"
 #include "depowder/mesh.hpp"
 #include "depowder/node/convert.hpp"
 
 namespace depowder::progress {
-namespace {
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
-}  // namespace
-
 ProgressNodeOptions readProgressOptions(const node::CellConfig& cell) {
   ProgressNodeOptions o;
   const node::YamlReader r = cell.root.child("progress");
@@ -28,11 +17,6 @@ ProgressNodeOptions readProgressOptions(const node::CellConfig& cell) {
   r.read("eta2", e.eta2, 0.0, 1.0);
   if (e.eta2 <= e.eta1) r.fail("eta2", "must be greater than eta1");
   r.read("band_offset", e.band_offset, -0.005, 0.05);
-  // The band starts at xi + band_offset from the part (estimateProgress refuses it otherwise, on every frame).
-  for (const node::PartConfig& part : cell.parts)
-    if (part.xi + e.band_offset <= 0)
-      r.fail("band_offset", "value " + fmt(e.band_offset) + " with part '" + part.name + "' (xi " + fmt(part.xi) +
-                                ") leaves xi + band_offset <= 0: the band must start outside the part");
   r.read("band_width", e.band_width, 0.001, 0.05);
   r.read("top_margin", e.top_margin, -0.05, 0.1);
   r.read("min_band_points", e.min_band_points, 1, 100000);
@@ -44,6 +28,10 @@ ProgressNodeOptions readProgressOptions(const node::CellConfig& cell) {
   r.read("contour_radius", e.contour_radius, 0.001, 0.1);
   r.read("contour_min_points", e.contour_min_points, 1, 1000);
   r.read("footprint_reuse", e.footprint_reuse, 0.0, 0.01);
+  // What estimateProgress would refuse on every frame for a part (xi + band_offset <= 0): said now.
+  for (const node::PartConfig& part : cell.parts)
+    if (const std::string why = checkConfig(part.xi, e); !why.empty())
+      r.fail("", "with part '" + part.name + "': " + why);
   r.read("cad_spacing", o.cad_spacing, 0.0005, 0.02);
   std::string mode = toString(o.filter.mode);
   r.readChoice("eta_filter", mode, {"median", "running_max", "running_max_reset", "none"});
@@ -127,7 +115,7 @@ progress_t ProgressNode::process(Frame& frame, Part& part, const Pose* pose, con
       msg.status = progress_t::NO_POINTS;
       break;
     case Status::kNoContour:
-    case Status::kBadConfig:  // cannot happen with readProgressOptions' options; eta is held all the same
+    case Status::kBadConfig:  // readProgressOptions refuses such options (checkConfig); eta is held all the same
       msg.status = progress_t::NO_CONTOUR;
       break;
   }

@@ -18,26 +18,6 @@ std::string fmt(double v) {
   return s.str();
 }
 
-/// The first config problem, or "" if none.
-std::string checkConfig(double xi, const ProgressConfig& c) {
-  auto positive = [](double v) { return std::isfinite(v) && v > 0; };
-  if (!positive(xi)) return "xi must be a positive distance in m, got " + fmt(xi);
-  if (!positive(c.band_width)) return "band_width must be > 0 m, got " + fmt(c.band_width);
-  if (!std::isfinite(c.band_offset) || xi + c.band_offset <= 0)
-    return "band_offset must keep xi + band_offset > 0, got " + fmt(c.band_offset);
-  if (!std::isfinite(c.top_margin)) return "top_margin must be finite";
-  if (!std::isfinite(c.cover_margin) || c.cover_margin < 0) return "cover_margin must be >= 0 m";
-  if (c.min_band_points < 1) return "min_band_points must be >= 1";
-  if (!std::isfinite(c.outlier_mad_k) || c.outlier_mad_k < 0) return "outlier_mad_k must be >= 0";
-  if (!std::isfinite(c.outlier_floor) || c.outlier_floor < 0) return "outlier_floor must be >= 0 m";
-  if (!positive(c.grid_cell)) return "grid_cell must be > 0 m";
-  if (!positive(c.contour_spacing)) return "contour_spacing must be > 0 m";
-  if (!positive(c.contour_radius)) return "contour_radius must be > 0 m";
-  if (c.contour_min_points < 1) return "contour_min_points must be >= 1";
-  if (!std::isfinite(c.footprint_reuse) || c.footprint_reuse < 0) return "footprint_reuse must be >= 0 m";
-  return "";
-}
-
 /// The q-quantile (nearest rank) of v; v is reordered.
 double quantile(std::vector<double>& v, double q) {
   const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()));
@@ -244,6 +224,25 @@ bool planarMotion(const Cloud& then, const Cloud& now, const Eigen::Matrix3d& R_
 }
 
 }  // namespace
+
+std::string checkConfig(double xi, const ProgressConfig& c) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+  if (!positive(xi)) return "xi must be a positive distance in m, got " + fmt(xi);
+  if (!positive(c.band_width)) return "band_width must be > 0 m, got " + fmt(c.band_width);
+  if (!std::isfinite(c.band_offset) || xi + c.band_offset <= 0)
+    return "band_offset must keep xi + band_offset > 0, got " + fmt(c.band_offset) + " with xi " + fmt(xi);
+  if (!std::isfinite(c.top_margin)) return "top_margin must be finite";
+  if (!std::isfinite(c.cover_margin) || c.cover_margin < 0) return "cover_margin must be >= 0 m";
+  if (c.min_band_points < 1) return "min_band_points must be >= 1";
+  if (!std::isfinite(c.outlier_mad_k) || c.outlier_mad_k < 0) return "outlier_mad_k must be >= 0";
+  if (!std::isfinite(c.outlier_floor) || c.outlier_floor < 0) return "outlier_floor must be >= 0 m";
+  if (!positive(c.grid_cell)) return "grid_cell must be > 0 m";
+  if (!positive(c.contour_spacing)) return "contour_spacing must be > 0 m";
+  if (!positive(c.contour_radius)) return "contour_radius must be > 0 m";
+  if (c.contour_min_points < 1) return "contour_min_points must be >= 1";
+  if (!std::isfinite(c.footprint_reuse) || c.footprint_reuse < 0) return "footprint_reuse must be >= 0 m";
+  return "";
+}
 
 const char* toString(Status s) {
   switch (s) {

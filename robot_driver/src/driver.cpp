@@ -221,7 +221,7 @@ bool Driver::enableFromCurrentPosition() {
 bool Driver::connectAndEnable() {
   const std::int64_t now = monoNs();
   if (now < next_connect_ns_) return false;
-  next_connect_ns_ = now + static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9);
+  next_connect_ns_ = now + reconnectPeriodNs();
   const SessionResult r = session_.open();
   if (!r.ok) {
     // Unreachable, or reached and refusing (a wrong robot or I/O name in the cell file).
@@ -282,7 +282,7 @@ bool Driver::cycle() {
       status_.waypoint_index = -1;
     }
     if (!enableFromCurrentPosition()) {
-      next_connect_ns_ = now + static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9);
+      next_connect_ns_ = now + reconnectPeriodNs();
       return false;
     }
     // A new ESTOP while re-enabling leaves it EStopped (enableFromCurrentPosition said so).
@@ -294,7 +294,7 @@ bool Driver::cycle() {
   if (!session_.inSlaveMode()) {
     const std::int64_t now = monoNs();
     if (now < next_connect_ns_) return false;
-    next_connect_ns_ = now + static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9);
+    next_connect_ns_ = now + reconnectPeriodNs();
     enableFromCurrentPosition();
     return false;
   }

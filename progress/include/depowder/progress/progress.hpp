@@ -64,6 +64,10 @@ struct ProgressEstimate {
   std::size_t band_outliers = 0;  ///< band candidates rejected as height outliers or above the top
 };
 
+/// The first problem of `config` for a part of template distance `xi` (m), or "" if none: what
+/// estimateProgress refuses as kBadConfig on every frame (a node checks its options with it once).
+std::string checkConfig(double xi, const ProgressConfig& config);
+
 /// `cad_in_cell`: the CAD surface samples transformed to the current pose (P_cad . T_i);
 /// `scan`: the cell-frame cloud P_i; `xi`: the part's template distance threshold (m).
 /// Never throws; bad input (empty, NaN) gives a status and reason.

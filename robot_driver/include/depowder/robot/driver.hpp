@@ -119,6 +119,8 @@ class Driver {
   /// follow_lag_s_ from this cycle's command and the position its reply carried.
   void updateFollowLag(const Joints& command, const Joints& measured);
   void sleepCycle();
+  /// Between attempts to connect or to enable again (config's reconnect_period_s).
+  std::int64_t reconnectPeriodNs() const { return static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9); }
 
   DriverConfig cfg_;
   WallClock wall_;
