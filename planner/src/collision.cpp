@@ -1,6 +1,7 @@
 #include "depowder/planner/collision.hpp"
 
 #include <array>
+#include <optional>
 #include <stdexcept>
 
 #include "fcl_util.hpp"
@@ -16,8 +17,7 @@ std::shared_ptr<FclMesh> makeBvh(const Mesh& mesh) {
   bvh->beginModel(static_cast<int>(triangles.size()), static_cast<int>(vertices.size()));
   bvh->addSubModel(vertices, triangles);
   bvh->endModel();
-  bvh->computeLocalAABB();
-  return bvh;
+  return prepared(bvh);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -39,7 +39,7 @@ namespace {
 
 /// Nozzle body grown by m: a cylinder of radius r + m from m below the tip to m above the top.
 std::shared_ptr<FclGeometry> nozzleShape(const NozzleConfig& nozzle, double m) {
-  return std::make_shared<fcl::Cylinderd>(nozzle.radius + m, nozzle.length + 2 * m);
+  return prepared(std::make_shared<fcl::Cylinderd>(nozzle.radius + m, nozzle.length + 2 * m));
 }
 
 /// Pose of that cylinder (centred on its axis) for the nozzle at T_cell_nozzle; +z of the
@@ -61,21 +61,21 @@ struct ArmCapsule {
 
 struct Static {
   std::string name;
-  FclObject object;
+  Placed object;
 };
 
 }  // namespace
 
 struct CollisionWorld::Impl {
   std::vector<std::shared_ptr<const PartShape>> parts;
-  std::vector<FclObject> part_objects;
+  std::vector<Placed> part_objects;
   std::vector<Pose> poses;
   std::vector<PartState> states;
   Box box;
   NozzleConfig nozzle;
   CollisionConfig config;
   std::vector<Static> statics;  // walls and floor
-  std::unique_ptr<FclObject> powder;
+  std::optional<Placed> powder;
   double powder_top = 0;
   // The nozzle grown for static obstacles, tracked parts and lost parts.
   std::shared_ptr<FclGeometry> nozzle_static, nozzle_tracked, nozzle_lost;
@@ -85,25 +85,25 @@ struct CollisionWorld::Impl {
   Contact armContact(const robot::Joints& q, const CheckOptions& o) const {
     if (!robot::withinLimits(*arm, q)) return {true, "joint limits"};
     const std::vector<Pose> links = robot::linkPoses(q);
-    std::vector<FclObject> fixed;
+    std::vector<Placed> fixed;
     fixed.reserve(capsules.size());
     for (const ArmCapsule& c : capsules) {
       const Pose T = arm->T_cell_base * links[c.link] * c.T_link_shape;
-      fixed.push_back(makeObject(c.fixed, T));
+      fixed.push_back(place(c.fixed, T));
       for (const Static& s : statics)
         if (collide(fixed.back(), s.object)) return {true, c.name + "-" + s.name};
       if (o.powder && powder && collide(fixed.back(), *powder)) return {true, c.name + "-powder"};
       for (std::size_t i = 0; i < parts.size(); ++i) {
         if (states[i] == PartState::kIgnored || static_cast<int>(i) == o.ignore_part) continue;
         const bool lost = states[i] == PartState::kLost && o.lost_margin;
-        const FclObject grown = makeObject(lost ? c.lost : c.tracked, T);
+        const Placed grown = place(lost ? c.lost : c.tracked, T);
         if (collide(grown, part_objects[i])) return {true, c.name + "-part:" + parts[i]->name(), static_cast<int>(i)};
       }
     }
     const Pose T_cell_nozzle = arm->T_cell_base * links[6] * arm->T_flange_nozzle;
     if (Contact c = nozzleContact(T_cell_nozzle, o)) return c;
     // Self collision: the nozzle against the links up to the elbow (the wrist carries it).
-    const FclObject n = makeObject(nozzle_static, nozzleShapePose(T_cell_nozzle, nozzle));
+    const Placed n = place(nozzle_static, nozzleShapePose(T_cell_nozzle, nozzle));
     for (std::size_t k = 0; k < capsules.size(); ++k)
       if (capsules[k].link <= 3 && collide(n, fixed[k])) return {true, "nozzle-" + capsules[k].name};
     return {};
@@ -114,15 +114,15 @@ struct CollisionWorld::Impl {
     if ((tip.array() < config.workspace_min.array()).any() || (tip.array() > config.workspace_max.array()).any())
       return {true, "workspace"};
     const Pose T = nozzleShapePose(T_cell_nozzle, nozzle);
-    const FclObject fixed = makeObject(nozzle_static, T);
+    const Placed fixed = place(nozzle_static, T);
     for (const Static& s : statics)
       if (collide(fixed, s.object)) return {true, "nozzle-" + s.name};
     if (o.powder && powder && collide(fixed, *powder)) return {true, "nozzle-powder"};
-    const FclObject tracked = makeObject(nozzle_tracked, T);
-    const FclObject lost = makeObject(nozzle_lost, T);
+    const Placed tracked = place(nozzle_tracked, T);
+    const Placed lost = place(nozzle_lost, T);
     for (std::size_t i = 0; i < parts.size(); ++i) {
       if (states[i] == PartState::kIgnored || static_cast<int>(i) == o.ignore_part) continue;
-      const FclObject& n = states[i] == PartState::kLost && o.lost_margin ? lost : tracked;
+      const Placed& n = states[i] == PartState::kLost && o.lost_margin ? lost : tracked;
       if (collide(n, part_objects[i])) return {true, "nozzle-part:" + parts[i]->name(), static_cast<int>(i)};
     }
     return {};
@@ -141,14 +141,16 @@ CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> par
     body.length = std::max(nozzle.length, w.arm->T_flange_nozzle.translation().norm());
     for (const robot::LinkCapsule& c : robot::linkCapsules()) {
       const double len = (c.p1 - c.p0).norm();
-      auto capsule = [&](double m) { return std::make_shared<fcl::Capsuled>(c.radius + m, len); };
+      auto capsule = [&](double m) { return prepared(std::make_shared<fcl::Capsuled>(c.radius + m, len)); };
       w.capsules.push_back({c.link, c.name, segmentFrame(c.p0, c.p1), capsule(config.arm_margin),
                             capsule(config.arm_margin + config.tracking_margin),
                             capsule(config.arm_margin + config.lost_margin)});
     }
     // The end effector's body on the flange; the nozzle cylinder below covers the tube to the tip.
     for (const EffectorBody& e : effectorBodies(w.arm->effector, w.arm->T_flange_nozzle)) {
-      auto cylinder = [&](double m) { return std::make_shared<fcl::Cylinderd>(e.radius + m, e.length + 2 * m); };
+      auto cylinder = [&](double m) {
+        return prepared(std::make_shared<fcl::Cylinderd>(e.radius + m, e.length + 2 * m));
+      };
       w.capsules.push_back({6, "effector", e.T_flange_body, cylinder(config.arm_margin),
                             cylinder(config.arm_margin + config.tracking_margin),
                             cylinder(config.arm_margin + config.lost_margin)});
@@ -160,7 +162,7 @@ CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> par
   w.config = config;
   for (const auto& p : w.parts) {
     if (!p) throw std::invalid_argument("CollisionWorld: null part");
-    w.part_objects.push_back(makeObject(p->impl().bvh));
+    w.part_objects.push_back(place(p->impl().bvh));
     w.poses.push_back(Pose::Identity());
     w.states.push_back(PartState::kIgnored);
   }
@@ -172,7 +174,7 @@ CollisionWorld::CollisionWorld(std::vector<std::shared_ptr<const PartShape>> par
   auto add = [&](const std::string& name, const Eigen::Vector3d& size, const Eigen::Vector3d& centre) {
     Pose T = Pose::Identity();
     T.translation() = centre;
-    w.statics.push_back({name, makeObject(std::make_shared<fcl::Boxd>(size), T)});
+    w.statics.push_back({name, place(prepared(std::make_shared<fcl::Boxd>(size)), T)});
   };
   add("wall:+x", {t, s.y() + 2 * t, h}, {0.5 * (s.x() + t), 0, zc});
   add("wall:-x", {t, s.y() + 2 * t, h}, {-0.5 * (s.x() + t), 0, zc});
@@ -193,7 +195,7 @@ void CollisionWorld::setPart(std::size_t i, const Pose& T_cell_part, PartState s
   Impl& w = *impl_;
   w.poses.at(i) = T_cell_part;
   w.states.at(i) = state;
-  place(w.part_objects.at(i), T_cell_part);
+  w.part_objects.at(i) = place(w.part_objects.at(i).geometry, T_cell_part);
 }
 
 const Pose& CollisionWorld::partPose(std::size_t i) const { return impl_->poses.at(i); }
@@ -208,8 +210,7 @@ void CollisionWorld::setPowderTop(double top) {
   }
   Pose T = Pose::Identity();
   T.translation() = Point(0, 0, 0.5 * top);
-  w.powder =
-      std::make_unique<FclObject>(makeObject(std::make_shared<fcl::Boxd>(w.box.size.x(), w.box.size.y(), top), T));
+  w.powder = place(prepared(std::make_shared<fcl::Boxd>(w.box.size.x(), w.box.size.y(), top)), T);
 }
 
 double CollisionWorld::powderTop() const { return impl_->powder_top; }

@@ -21,24 +21,43 @@ struct PartShape::Impl {
 /// A BVH of the mesh's triangles (part frame).
 std::shared_ptr<FclMesh> makeBvh(const Mesh& mesh);
 
-/// A collision object owning `geometry` at pose T (AABB computed).
-inline FclObject makeObject(std::shared_ptr<FclGeometry> geometry, const Pose& T = Pose::Identity()) {
-  FclObject object(std::move(geometry), T);
-  object.computeAABB();
-  return object;
+/// `geometry` with its local bounding box computed: done once, where it is made. Placing it
+/// afterwards only reads it.
+template <class G>
+std::shared_ptr<G> prepared(std::shared_ptr<G> geometry) {
+  geometry->computeLocalAABB();
+  return geometry;
 }
 
-inline void place(FclObject& object, const Pose& T) {
-  object.setTransform(T);
-  object.computeAABB();
+/// A prepared geometry at pose T, with its bounding box in the cell: what collide() takes.
+/// Not an fcl::CollisionObject: that one's constructor recomputes the local bounding box of the
+/// geometry it is given, a write into a geometry that the planner's edge-checking threads share.
+struct Placed {
+  std::shared_ptr<const FclGeometry> geometry;
+  fcl::Transform3d T = fcl::Transform3d::Identity();
+  fcl::AABBd aabb;
+};
+
+inline Placed place(std::shared_ptr<const FclGeometry> geometry, const Pose& T = Pose::Identity()) {
+  Placed p{std::move(geometry), T, {}};
+  // As fcl::CollisionObject::computeAABB.
+  if (T.linear().isIdentity()) {
+    p.aabb = fcl::translate(p.geometry->aabb_local, T.translation());
+  } else {
+    const fcl::Vector3d centre = T * p.geometry->aabb_center;
+    const fcl::Vector3d delta = fcl::Vector3d::Constant(p.geometry->aabb_radius);
+    p.aabb.min_ = centre - delta;
+    p.aabb.max_ = centre + delta;
+  }
+  return p;
 }
 
-/// True if the two objects intersect (AABB test first).
-inline bool collide(const FclObject& a, const FclObject& b) {
-  if (!a.getAABB().overlap(b.getAABB())) return false;
+/// True if the two intersect (bounding boxes first).
+inline bool collide(const Placed& a, const Placed& b) {
+  if (!a.aabb.overlap(b.aabb)) return false;
   fcl::CollisionRequestd request;
   fcl::CollisionResultd result;
-  return fcl::collide(&a, &b, request, result) > 0;
+  return fcl::collide(a.geometry.get(), a.T, b.geometry.get(), b.T, request, result) > 0;
 }
 
 }  // namespace depowder::planner

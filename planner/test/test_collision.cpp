@@ -30,6 +30,27 @@ double fclAxisDistance(const PartShape& part, const Pose& T, const Point& tip, d
   return result.min_distance + kRadius;
 }
 
+// The planner checks a path's edges on two threads against the same geometries: placing one
+// must only read it (an fcl::CollisionObject recomputes the geometry's local box, a write).
+TEST(Placed, OnlyReadsTheGeometryAndBoundsItAsFclDoes) {
+  auto capsule = prepared(std::make_shared<fcl::Capsuled>(0.04, 0.3));
+  Pose T = Pose::Identity();
+  T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  T.translation() = Point(0.1, -0.2, 0.3);
+  const Placed rotated = place(capsule, T);
+  const FclObject reference(capsule, T);  // rewrites the local box with the same values
+  EXPECT_LT((rotated.aabb.min_ - reference.getAABB().min_).norm(), 1e-12);
+  EXPECT_LT((rotated.aabb.max_ - reference.getAABB().max_).norm(), 1e-12);
+  const Placed upright = place(capsule, Pose(Eigen::Translation3d(0.1, -0.2, 0.3)));
+  EXPECT_NEAR(upright.aabb.max_.z() - upright.aabb.min_.z(), 0.3 + 2 * 0.04, 1e-12);  // the tight local box
+  EXPECT_NEAR(upright.aabb.min_.x(), 0.1 - 0.04, 1e-12);
+
+  capsule->aabb_radius = 5;  // a sentinel: placing reads it, never recomputes it
+  const Placed again = place(capsule, T);
+  EXPECT_EQ(capsule->aabb_radius, 5);
+  EXPECT_NEAR(again.aabb.max_.x() - again.aabb.min_.x(), 10, 1e-12);
+}
+
 TEST(AxisDistance, MatchesFclOnEveryPart) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-0.09, 0.09), h(-0.02, 0.12);
