@@ -116,10 +116,39 @@ int main(int argc, char** argv) {
         std::cerr << "depowder-driver: " << input_problem << std::endl;
       }
     });
-    bus.subscribe<estop_t>("ESTOP", [&](const estop_t& msg, const std::string&) {
+    // ESTOP on a bus of its own, handled in a thread of its own: it never waits behind a plan
+    // being prepared (IK along the whole plan) or a ROBOT_STATE going out on the main thread.
+    node::Bus estop_bus(have_url ? url : cell.lcm.url, have_prefix ? prefix : cell.lcm.prefix);
+    estop_bus.subscribe<estop_t>("ESTOP", [&](const estop_t& msg, const std::string&) {
       driver.estop(msg.stop, msg.source + ": " + msg.reason);
       std::cerr << "depowder-driver: ESTOP " << (msg.stop ? "STOP" : "reset") << " from " << msg.source << ": "
                 << msg.reason << std::endl;
+    });
+    std::atomic<bool> stop_estop{false};
+    std::thread estop_listener;
+    std::atomic<bool> stop_loop{false};
+    std::thread loop;
+    // However this scope is left (a bus error throws): the slave loop brakes the arm and gives
+    // it back first, with ESTOP still obeyed, then the listener stops.
+    struct Joiner {
+      std::atomic<bool>& stop;
+      std::thread& thread;
+      ~Joiner() {
+        stop = true;
+        if (thread.joinable()) thread.join();
+      }
+    } join_estop{stop_estop, estop_listener}, join_loop{stop_loop, loop};
+    estop_listener = std::thread([&] {
+      while (!stop_estop) {
+        try {
+          estop_bus.spinOnce(50);
+        } catch (const std::exception& e) {
+          // Deaf to ESTOP: the arm is stopped as if one came (a reset cannot arrive any more).
+          driver.estop(true, std::string("the ESTOP listener failed: ") + e.what());
+          std::cerr << "depowder-driver: ESTOP listener failed, arm stopped: " << e.what() << std::endl;
+          return;
+        }
+      }
     });
     // The planner's heartbeats: one planner, of this driver's arm and workspace (PlannerWatch).
     robot::PlannerWatch planners(robot::armModelId(section.driver.arm, section.driver.safety.workspace),
@@ -135,8 +164,7 @@ int main(int argc, char** argv) {
     heartbeat.publish();
 
     // 3. The slave loop in its own thread (real-time priority when allowed).
-    std::atomic<bool> stop_loop{false};
-    std::thread loop([&] { driver.run(stop_loop); });
+    loop = std::thread([&] { driver.run(stop_loop); });
     bool realtime = false;
     if (opt.realtime) {
       sched_param sp{};
@@ -166,6 +194,7 @@ int main(int argc, char** argv) {
       last_reason = st.reason;
 
       for (const std::string& e : bus.takeErrors()) std::cerr << "depowder-driver: " << e << std::endl;
+      for (const std::string& e : estop_bus.takeErrors()) std::cerr << "depowder-driver: ESTOP: " << e << std::endl;
       const robot::DriverStats& s = st.stats;
       heartbeat.setStat("mode", static_cast<double>(st.mode));
       heartbeat.setStat("exchanges", static_cast<double>(s.exchanges));
@@ -191,11 +220,11 @@ int main(int argc, char** argv) {
       heartbeat.tick();
     }
 
-    // 5. Orderly shutdown: the loop leaves slave mode, gives the arm back, motor off, disconnects.
+    // 5. Orderly shutdown: the loop brakes the arm to rest, leaves slave mode, gives the arm
+    // back, motor off, disconnects; ESTOP is obeyed until then.
     heartbeat.setState(heartbeat_t::STOPPING);
     heartbeat.publish();
-    stop_loop = true;
-    loop.join();
+    // (join_loop, then join_estop)
   } catch (const std::exception& e) {
     std::cerr << "depowder-driver: " << e.what() << std::endl;
     return 1;

@@ -87,10 +87,15 @@ PlanResult Driver::submitPlan(const Plan& plan) {
   PreparedPlan pp = preparePlan(cfg_.arm, cfg_.trajectory, cfg_.safety.workspace, plan, q_start);
   if (!pp.usable() && pp.status != PlanStatus::Empty)
     return refuse(pp.status, std::string(toString(pp.status)) + ": " + pp.reason);
+  std::unique_lock<PiMutex> lock(mutex_);
+  // An ESTOP that came while the plan was prepared (it is handled on another thread) wins.
+  if (estop_latched_) {
+    lock.unlock();
+    return refuse(PlanStatus::Empty, "ESTOP is active (reset it first)");
+  }
   res.accepted = true;
   res.status = pp.status;
   res.reason = pp.reason;
-  std::lock_guard<PiMutex> lock(mutex_);
   ++status_.stats.plans_accepted;
   if (pp.status == PlanStatus::Clipped) ++status_.stats.plans_clipped;
   status_.last_plan_result =
@@ -423,7 +428,37 @@ void Driver::run(const std::atomic<bool>& stop) {
       sleepCycle();
     }
   }
+  brakeToRest();
   close();
+}
+
+void Driver::brakeToRest() {
+  // Leaving slave mode at speed would stop the arm at once (on a real controller, an error
+  // stop): an orderly shutdown first brakes along the path, as a controlled stop does, and holds
+  // the last command until the arm has reached it.
+  if (!session_.isOpen() || !session_.inSlaveMode() || estop_latched_) return;
+  generator_.stop();
+  {
+    std::lock_guard<PiMutex> lock(mutex_);
+    have_plan_ = false;
+    incoming_.reset();
+    status_.reason = "driver stopping: braking to rest";
+  }
+  const double cycle_s = cfg_.trajectory.cycle_s;
+  const std::int64_t now = monoNs();
+  const std::int64_t give_up =
+      now + static_cast<std::int64_t>((1.2 * generator_.brakingTime() + follow_lag_s_ + 0.5) * 1e9);
+  std::int64_t at_rest = -1;  // when the arm will have reached the last command
+  while (!estop_latched_ && session_.inSlaveMode() && monoNs() < give_up) {
+    if (!generator_.current().moving) {
+      if (at_rest < 0) at_rest = monoNs() + static_cast<std::int64_t>((follow_lag_s_ + 2 * cycle_s) * 1e9);
+      if (monoNs() >= at_rest) break;
+    }
+    if (cycle())
+      deadline_ns_ = monoNs();
+    else
+      sleepCycle();
+  }
 }
 
 void Driver::close() {

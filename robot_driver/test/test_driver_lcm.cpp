@@ -226,8 +226,57 @@ TEST(DriverProcess, PlansStateEstopHeartbeatShutdown) {
       10))
       << last.mode_reason;
 
-  // 8. SIGTERM: orderly shutdown (slave mode left, arm given back, motor off), exit 0.
+  // 8. ESTOP right behind a long plan: the driver prepares a plan (IK along all of it) on its
+  // main thread, and takes ESTOP on a thread of its own: the arm halts at once, not once the plan
+  // is prepared, and the plan is refused.
+  std::vector<Pose> zigzag;
+  for (int k = 0; k < 1500; ++k) zigzag.push_back(k % 2 ? down(-0.15, 0.1, 0.1) : down(0.15, -0.1, 0.3));
+  const nozzle_plan_t long_plan = p.plan(9, zigzag, 0.1);
+  const std::int64_t halts_before = p.emu->stats().halts;
+  const auto t_long = std::chrono::steady_clock::now();
+  p.bus->publish("NOZZLE_PLAN", long_plan);
+  p.bus->publish("ESTOP", estopMsg(true));
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        alive();
+        return p.emu->stats().halts > halts_before;
+      },
+      5));
+  const double behind_ms = std::chrono::duration<double, std::milli>(*p.emu->lastHaltTime() - t_long).count();
+  std::printf("ESTOP published behind a %d-waypoint plan -> arm halted: %.2f ms\n", long_plan.num_waypoints, behind_ms);
+  EXPECT_LT(behind_ms, 100.0);
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        alive();
+        return have_hb && hb.state_reason.find("plan 9 refused: ESTOP is active") != std::string::npos;
+      },
+      5))
+      << hb.state_reason;
+  p.bus->publish("ESTOP", estopMsg(false));
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        alive();
+        return last.mode == robot_state_t::MODE_IDLE;
+      },
+      3))
+      << last.mode_reason;
+  EXPECT_NE(last.plan_id, 9);
+
+  // 9. SIGTERM while following a plan: the arm brakes to rest before slave mode is left (leaving
+  // it at speed stops a real arm at once), then the orderly shutdown (arm given back, motor
+  // off), exit 0.
+  const Eigen::Vector3d from = p.emuNozzle();
+  p.bus->publish("NOZZLE_PLAN", p.plan(10, {down(-0.15, -0.1, 0.3)}, 0.25));
+  ASSERT_TRUE(p.spinUntil(
+      [&] {
+        alive();
+        return last.mode == robot_state_t::MODE_FOLLOWING && (p.emuNozzle() - from).norm() > 0.03;
+      },
+      5))
+      << last.mode_reason;
   EXPECT_EQ(p.terminate(), 0);
+  EXPECT_EQ(p.emu->stats().abrupt_exits, 0);
+  EXPECT_GT((p.emuNozzle() - from).norm(), 0.03);
   EXPECT_FALSE(p.emu->joints().motor_on);
   EXPECT_FALSE(p.emu->joints().slave_mode);
   EXPECT_FALSE(p.emu->tool().vacuum);

@@ -531,6 +531,10 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
     if (!v) return error(req, hr::E_INVALIDARG, "slvChangeMode expects an integer mode");
     if (arm_owner_ != connection) return error(req, hr::E_ARM_NOT_TAKEN, "slvChangeMode");
     if (*v == 0) {
+      const bool moving = last_move_ns_ != 0 &&
+                          nowNs() - last_move_ns_ < static_cast<std::int64_t>(2.5 * config_.cycle_s * 1e9) &&
+                          std::any_of(qd_.begin(), qd_.end(), [](double x) { return std::abs(x) > 1e-6; });
+      if (moving) ++stats_.abrupt_exits;
       slave_mode_ = 0;
       restLocked();
       return reply(req, hr::S_OK, {Variant::empty()});

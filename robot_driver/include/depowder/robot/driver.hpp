@@ -101,7 +101,9 @@ class Driver {
   // ---- the loop (one thread) ----
   /// One cycle. Returns true if the controller paced it (a sync-mode slvMove exchange).
   bool cycle();
-  /// cycle() until `stop` becomes true, pacing with absolute deadlines; then close().
+  /// cycle() until `stop` becomes true, pacing with absolute deadlines; then brakes a moving arm
+  /// to rest along its path (as a controlled stop, at most its braking time and 0.5 s) and
+  /// close().
   void run(const std::atomic<bool>& stop);
   /// Orderly shutdown of the controller session.
   void close();
@@ -119,6 +121,8 @@ class Driver {
   /// follow_lag_s_ from this cycle's command and the position its reply carried.
   void updateFollowLag(const Joints& command, const Joints& measured);
   void sleepCycle();
+  /// At shutdown: a controlled stop of a moving arm, cycled until it is at rest (see run()).
+  void brakeToRest();
   /// Between attempts to connect or to enable again (config's reconnect_period_s).
   std::int64_t reconnectPeriodNs() const { return static_cast<std::int64_t>(cfg_.reconnect_period_s * 1e9); }
 

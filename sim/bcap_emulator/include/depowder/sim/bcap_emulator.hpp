@@ -76,6 +76,7 @@ struct EmulatorStats {
   std::int64_t limit_errors = 0;   ///< targets outside the joint limits
   std::int64_t speed_errors = 0;   ///< targets too far for one cycle
   std::int64_t halts = 0;          ///< Robot_Halt calls
+  std::int64_t abrupt_exits = 0;   ///< slave mode left with the arm moving (stopped at once, not braked)
   int send_format = -1;            ///< the last slvSendFormat set (-1: never; the controller keeps it)
   int recv_format = -1;            ///< the last slvRecvFormat set (-1: never)
   std::string last_error;          ///< description of the last error reply
