@@ -122,7 +122,10 @@ class CameraNode {
     // The self-filter's nozzle poses: the driver's forward kinematics of the measured joints.
     bus_.subscribe<robot_state_t>(options_.robot_state, [this](const robot_state_t& msg, const std::string&) {
       if (msg.mode == robot_state_t::MODE_DISCONNECTED) return;
-      if (const std::optional<Pose> T = node::fromMsg(msg.T_cell_nozzle)) proxy_.addNozzlePose(msg.utime, *T);
+      if (const std::optional<Pose> T = node::fromMsg(msg.T_cell_nozzle)) {
+        proxy_.addNozzlePose(msg.utime, *T);
+        robot_heard_ = true;
+      }
     });
     std::fprintf(stderr, "depowder-camera: %s -> %s (%zu cameras in %s)\n", bus_.channel(options_.input).c_str(),
                  bus_.channel(options_.output).c_str(), options_.cell.cameras.size(), options_.cell.file.c_str());
@@ -194,6 +197,7 @@ class CameraNode {
       last_bytes_ = msg.getEncodedSize();
       last_outliers_ = static_cast<double>(cloud.outliers);
       last_on_nozzle_ = static_cast<double>(cloud.on_nozzle);
+      last_unfiltered_ = cloud.unfiltered;
     }
   }
 
@@ -203,6 +207,7 @@ class CameraNode {
     heartbeat_.setStat("frames_in", static_cast<double>(c.frames_in));
     heartbeat_.setStat("frames_out", static_cast<double>(c.frames_out));
     heartbeat_.setStat("frames_partial", static_cast<double>(c.partial_out));
+    heartbeat_.setStat("frames_unfiltered", static_cast<double>(c.unfiltered_out));
     for (std::size_t s = 1; s < c.by_status.size(); ++s)
       heartbeat_.setStat(std::string("dropped_") + toString(static_cast<FrameStatus>(s)),
                          static_cast<double>(c.by_status[s]));
@@ -234,6 +239,11 @@ class CameraNode {
         reason += "camera " + h.name + " stale (" + std::to_string(std::llround(h.utime_lag * 1000)) + " ms behind); ";
       }
     }
+    // The arm's poses came once and none is near the frames now: the nozzle is in the clouds (the
+    // driver stopped publishing, or its host's clock is off from the cameras').
+    if (last_unfiltered_ && robot_heard_)
+      reason += "frames not self-filtered: no " + bus_.channel(options_.robot_state) + " within " +
+                std::to_string(std::lround(options_.perception.self_filter.max_age * 1000)) + " ms of their time; ";
     for (const auto& [name, a] : proxy_.agreement()) {
       if (!a.last.valid) continue;
       heartbeat_.setStat("apart_mm_" + name, 1000 * a.last.offset);
@@ -269,6 +279,8 @@ class CameraNode {
   Window latency_ms_;      ///< newest source utime to POINTS published
   std::int64_t seq_ = 0;
   double last_points_ = 0, last_bytes_ = 0, last_outliers_ = 0, last_on_nozzle_ = 0;
+  bool last_unfiltered_ = false;  ///< the last cloud published was not self-filtered
+  bool robot_heard_ = false;      ///< a nozzle pose came on ROBOT_STATE
   std::int64_t reported_drops_ = 0;
   std::int64_t reported_restarts_ = 0;
   Clock::time_point last_drop_time_{};

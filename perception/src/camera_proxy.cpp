@@ -126,10 +126,15 @@ std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {
 
 void CameraProxy::addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle) {
   if (!utimeInRange(utime)) return;
+  // Far behind the newest: the clock went back (a log played again), start over.
   if (!nozzle_poses_.empty() && clockWentBack(nozzle_poses_.back().first, utime)) nozzle_poses_.clear();
-  if (!nozzle_poses_.empty() && utime <= nozzle_poses_.back().first) return;
-  nozzle_poses_.emplace_back(utime, T_cell_nozzle);
-  while (nozzle_poses_.front().first < utime - 1000000) nozzle_poses_.pop_front();
+  // Kept in time order, however they come: one stamped ahead of the others (a bad stamp) keeps
+  // none of those after it out, and the oldest go first.
+  const auto at = std::lower_bound(nozzle_poses_.begin(), nozzle_poses_.end(), utime,
+                                   [](const auto& pose, std::int64_t u) { return pose.first < u; });
+  if (at != nozzle_poses_.end() && at->first == utime) return;
+  nozzle_poses_.emplace(at, utime, T_cell_nozzle);
+  if (nozzle_poses_.size() > kNozzlePoses) nozzle_poses_.pop_front();
 }
 
 const Pose* CameraProxy::nozzleAt(std::int64_t utime) const {
@@ -165,6 +170,7 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   const Pose* nozzle = config_.self_filter.margin >= 0 ? nozzleAt(merged.utime) : nullptr;
   std::optional<ToolVolume> tool;
   if (nozzle) tool.emplace(config_.self_filter, *nozzle);
+  out.unfiltered = config_.self_filter.margin >= 0 && !nozzle;
   // Sources are sorted by camera name, so the voxel order does not depend on arrival order.
   for (CameraFrame& f : merged.sources) {
     out.sources.push_back(f.camera);
@@ -188,6 +194,7 @@ CellCloud CameraProxy::finish(MergedFrame&& merged) {
   out.outliers = voxels.outliers;
   ++counters_.frames_out;
   if (!out.missing.empty()) ++counters_.partial_out;
+  if (out.unfiltered) ++counters_.unfiltered_out;
   return out;
 }
 

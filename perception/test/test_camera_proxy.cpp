@@ -201,6 +201,27 @@ TEST(CameraProxy, FramesAndPosesStampedOutsideTheUtimesTakenAreRefused) {
   EXPECT_EQ(proxy.counters().by_status[static_cast<int>(FrameStatus::kBadHeader)], 4);
 }
 
+// A ROBOT_STATE stamped ahead of the others, by less than a clock jump (a bad stamp, a driver
+// host whose clock ran ahead for a moment), keeps none of the poses after it out: the frame at
+// kT0 is filtered with the pose of kT0 that came after it.
+TEST(CameraProxy, ANozzlePoseStampedAheadKeepsNoneOfTheNextOut) {
+  const auto rig = defaultRig(160, 120);
+  const Scene s = scene();
+  PerceptionConfig cfg;
+  cfg.self_filter.margin = 0.005;
+  CameraProxy proxy(cfg, kBox, {"LEFT"});
+  const Pose T_cell_nozzle = nozzleInTheSphere();
+  Pose elsewhere = T_cell_nozzle;
+  elsewhere.translation().z() += 1.0;  // a metre up: filters nothing
+  proxy.addNozzlePose(kT0 - 500'000, elsewhere);
+  proxy.addNozzlePose(kT0 + 1'500'000, elsewhere);  // 1.5 s ahead
+  proxy.addNozzlePose(kT0, T_cell_nozzle);
+  ASSERT_TRUE(proxy.addDepth(render(s, rig[0], kT0), rig[0], kT0).ok());
+  const auto out = proxy.poll(kT0 + 100'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_GT(out[0].on_nozzle, 0u);  // the pose at kT0 was taken
+}
+
 // A log played again: the cameras' frames and the robot's poses go back a year. When every
 // camera's next frame is far behind, the time steps start over, and the nozzle poses likewise,
 // rather than every frame after being refused as late. One frame is lost: the first camera's,
@@ -281,7 +302,8 @@ TEST(CameraProxy, IsolatedVoxelRemovalTakesFlyingPixels) {
 }
 
 // The self-filter: with the nozzle's pose known (ROBOT_STATE), the points on it are removed and
-// nothing else; a pose older than max_age, or a negative margin, filters nothing.
+// nothing else; a pose older than max_age, or a negative margin, filters nothing (the first
+// says so: a cell's nozzle should have a pose).
 TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   const auto rig = defaultRig(320, 240);
   const Scene s = scene();  // the sphere stands in for the nozzle: a body over the powder
@@ -327,6 +349,10 @@ TEST(CameraProxy, SelfFilterRemovesThePointsOnTheNozzleOnly) {
   }
   EXPECT_EQ(stale.on_nozzle, 0u);
   EXPECT_EQ(stale.points.size(), all.points.size());
+  // Only the stale pose's frame is said unfiltered (the filter on, no pose near it).
+  EXPECT_TRUE(stale.unfiltered);
+  EXPECT_FALSE(filtered.unfiltered);
+  EXPECT_FALSE(all.unfiltered);
 }
 
 // The end effector's body (robot.effector) is filtered too, each of its cylinders where the

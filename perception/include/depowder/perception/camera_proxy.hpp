@@ -27,6 +27,7 @@ struct CellCloud {
   std::size_t points_in = 0;         ///< cropped points of all sources before downsampling
   std::size_t outliers = 0;          ///< voxels removed as isolated
   std::size_t on_nozzle = 0;         ///< cropped points removed as the nozzle's (self-filter)
+  bool unfiltered = false;           ///< self-filter on, but no nozzle pose within its max_age
 };
 
 /// How a camera's powder heights compare with the reference camera's (the first by name),
@@ -39,12 +40,13 @@ struct CameraAgreement {
 };
 
 struct ProxyCounters {
-  std::int64_t frames_in = 0;    ///< camera frames offered
-  std::int64_t frames_out = 0;   ///< time steps released
-  std::int64_t partial_out = 0;  ///< ... of which some expected camera was missing
-  StatusCounts by_status{};      ///< frames offered, by outcome (kOk = used)
-  FrameError last_error;         ///< the most recent rejection
-  std::int64_t dropped() const;  ///< every frame whose status is not kOk
+  std::int64_t frames_in = 0;       ///< camera frames offered
+  std::int64_t frames_out = 0;      ///< time steps released
+  std::int64_t partial_out = 0;     ///< ... of which some expected camera was missing
+  std::int64_t unfiltered_out = 0;  ///< ... of which not self-filtered: no nozzle pose near their time
+  StatusCounts by_status{};         ///< frames offered, by outcome (kOk = used)
+  FrameError last_error;            ///< the most recent rejection
+  std::int64_t dropped() const;     ///< every frame whose status is not kOk
 };
 
 class CameraProxy {
@@ -105,7 +107,8 @@ class CameraProxy {
   FrameMerger merger_;
   VoxelGrid grid_;
   ProxyCounters counters_;
-  std::deque<std::pair<std::int64_t, Pose>> nozzle_poses_;  ///< the last second of ROBOT_STATE, oldest first
+  static constexpr std::size_t kNozzlePoses = 256;          ///< 2 s of ROBOT_STATE at 125 Hz
+  std::deque<std::pair<std::int64_t, Pose>> nozzle_poses_;  ///< the newest ROBOT_STATE poses, oldest first
   Eigen::Vector3d box_size_;
   std::map<std::string, CameraAgreement> agreement_;
   std::int64_t last_check_ = 0;  ///< utime of the newest agreement check
