@@ -87,6 +87,12 @@ PlannerNodeOptions readPlannerOptions(const node::CellConfig& cell) {
   t.read("seed", seed, 0, 1 << 30);
   c.transition.seed = static_cast<std::uint32_t>(seed);
   t.finish();
+  // The lift's top is transition.clearance over the highest part; the nozzle is checked there grown
+  // by its margin and, against a LOST part, lost_margin: with less clearance no move could start.
+  if (c.transition.clearance <= c.nozzle.margin + c.collision.lost_margin)
+    t.fail("clearance", "must exceed nozzle.margin + collision.lost_margin (" +
+                            std::to_string(c.nozzle.margin + c.collision.lost_margin) +
+                            " m), or a nozzle lifted over a LOST part is still within its margin");
   const node::YamlReader p = r.child("replan");
   p.read("translation", c.replan.translation, 0.0, 0.1);
   p.read("rotation_deg", c.replan.rotation_deg, 0.0, 90.0);

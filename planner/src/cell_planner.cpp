@@ -50,7 +50,8 @@ struct CellPlanner::PartState {
   double undercut_powder = std::nan("");  ///< h_pow when its last undercut loop was planned
   int undercut_stalls = 0;                ///< undercut loops in a row that hardly lowered it
   std::optional<Pose> still_pose;         ///< tracked pose the part has kept within the moving thresholds...
-  std::int64_t moved_utime = -1;          ///< ...since this frame (-1: not since tracking began)
+  std::int64_t still_utime = -1;          ///< ...since this frame, at most settle_s ago
+  std::int64_t moved_utime = -1;          ///< the last frame it moved at (-1: not since tracking began)
 };
 
 namespace {
@@ -115,15 +116,17 @@ InputResult CellPlanner::onPose(const PoseInput& in, std::int64_t arrival) {
   s.pose = in;
   takeNewest(in.utime, arrival);
   // Motion watch (replan.settle_s) from the first tracked pose on: the jump from the printed pose
-  // to the first ICP estimate is not a motion.
+  // to the first ICP estimate is not a motion. The pose it is measured from is at most settle_s
+  // old: a slow drift of the estimate is not a motion either.
+  const ReplanConfig& rp = config_.replan;
   if (in.status == TrackStatus::kTracking || in.status == TrackStatus::kDegraded) {
-    if (!s.still_pose) {
+    const bool moved = s.still_pose && (translationDistance(in.T_cell_part, *s.still_pose) > rp.moving_translation ||
+                                        rotationAngle(in.T_cell_part.linear(), s.still_pose->linear()) >
+                                            rp.moving_rotation_deg * kPi / 180);
+    if (moved) s.moved_utime = in.utime;
+    if (!s.still_pose || moved || seconds(in.utime - s.still_utime) > rp.settle_s) {
       s.still_pose = in.T_cell_part;
-    } else if (translationDistance(in.T_cell_part, *s.still_pose) > config_.replan.moving_translation ||
-               rotationAngle(in.T_cell_part.linear(), s.still_pose->linear()) >
-                   config_.replan.moving_rotation_deg * kPi / 180) {
-      s.still_pose = in.T_cell_part;
-      s.moved_utime = in.utime;
+      s.still_utime = in.utime;
     }
   }
   return clock;

@@ -322,6 +322,23 @@ TEST_F(CellTest, MovingPartSendsTheNozzleAwayUntilItKeepsStill) {
   EXPECT_TRUE(check(*resumed, tipped, T_right).clean()) << check(*resumed, tipped, T_right).first;
 }
 
+// The watch measures from a pose at most settle_s old: an estimate drifting by 0.5 cm/s (2.5 cm
+// over 5 s, under 1 cm within any settle_s) is not a part on the move.
+TEST_F(CellTest, ASlowDriftOfTheEstimateIsNotAMotion) {
+  config.replan.settle_s = 1.0;
+  SetUp();
+  for (int k = 0; k <= 20; ++k) {
+    Pose drifted = T_left;
+    drifted.translation().x() += 0.00125 * k;
+    frame("left", drifted, Phase::kVacuumTracked, 0.04);
+    if (const auto p = planner->step()) {
+      EXPECT_EQ(p->reason.find("moving"), std::string::npos) << k << ": " << p->reason;
+      if (p->hasWaypoints()) robotAt(*p, 1);
+    }
+    utime += kSecond / 4;
+  }
+}
+
 TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFrom) {
   // The paper's toppling pipe: the part moves towards the nozzle, into the margins (not into
   // the nozzle itself). The nozzle backs straight out, then runs the new loop.

@@ -52,6 +52,8 @@ TEST(PlannerOptions, RejectsUnknownKeysAndBadValues) {
   expectError("planner:\n  vacuum: {standoff: 0.012}\n", "nozzle.radius");
   expectError("planner:\n  replan: {refresh_s: 2.0}\n", "plan_max_age");
   expectError("planner:\n  colour: red\n", "colour");
+  expectError("planner:\n  transition: {clearance: 0.02}\n",
+              "must exceed nozzle.margin + collision.lost_margin (0.022500");
   // The driver refuses a joint change over robot.max_joint_jump between IK points as a branch flip.
   expectError("planner:\n  collision: {max_joint_step: 0.4}\n", "must be less than robot.max_joint_jump (0.350000");
 }
