@@ -88,6 +88,9 @@ int main(int argc, char** argv) {
     std::optional<point_cloud_t> pending;
     std::int64_t pending_arrival = 0;  // node::steadyUtime when it arrived (the far-ahead rule)
     std::int64_t skipped = 0;
+    std::int64_t bad_frames = 0;  // refused and invalid, when input_problem was taken
+    std::string input_problem;
+    std::chrono::steady_clock::time_point input_problem_at{};
     bus.subscribe<point_cloud_t>("POINTS", [&](const point_cloud_t& msg, const std::string&) {
       if (pending) {
         ++skipped;  // a newer frame arrived before this one was tracked: drop the stale one
@@ -130,8 +133,18 @@ int main(int argc, char** argv) {
       heartbeat.setStat("frame_ms_p50", s.frame_ms_p50);
       heartbeat.setStat("frame_ms_p90", s.frame_ms_p90);
       heartbeat.setStat("frame_ms_max", s.frame_ms_max);
-      if (!s.last_problem.empty())
-        heartbeat.setState(heartbeat_t::DEGRADED, s.last_problem);
+      // A frame refused or broken is shown for 2 s, not only until the next frame tracks.
+      const auto now = std::chrono::steady_clock::now();
+      if (s.refused_frames + s.invalid_frames > bad_frames) {
+        bad_frames = s.refused_frames + s.invalid_frames;
+        input_problem = s.last_problem;
+        input_problem_at = now;
+      }
+      std::string problem = s.last_problem;
+      if (now - input_problem_at < std::chrono::seconds(2) && problem != input_problem)
+        problem += (problem.empty() ? "" : "; ") + input_problem;
+      if (!problem.empty())
+        heartbeat.setState(heartbeat_t::DEGRADED, problem);
       else if (!state_error.empty())
         heartbeat.setState(heartbeat_t::DEGRADED, "state file: " + state_error);
       else

@@ -191,7 +191,10 @@ std::string TrackerNode::refusedStamp(std::int64_t utime, std::int64_t arrival) 
         if (!clockWentBack(newest_utime_, utime))
           return "utime " + std::to_string(utime) + ", not newer than the frame tracked last (utime " +
                  std::to_string(newest_utime_) + "): reordered, or a second camera proxy publishes POINTS";
-        ++stats_.clock_restarts;  // a log played again, the camera proxy restarted: tracked on from the last poses
+        // Far behind is the clock going back, taken at once: the camera proxy has refused a lone
+        // frame far behind already (a bad stamp), and waiting for a second here would lose one
+        // more frame of every real step (a log played again, the proxy restarted).
+        ++stats_.clock_restarts;  // tracked on from the last poses
       }
     }
   }
@@ -250,7 +253,9 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg, std::in
     for (std::size_t i = 0; i < results.size(); ++i) {
       out.push_back(toMessage(msg.utime, i, results[i]));
       if (trackers_->part(i).started()) last_poses_[trackers_->part(i).name()] = {results[i].T_cell_part, msg.utime};
-      if (results[i].status != TrackStatus::kTracking && stats_.last_problem.empty())
+      // WAITING is phase 1 (the part still buried), not a problem.
+      const bool fine = results[i].status == TrackStatus::kTracking || results[i].status == TrackStatus::kWaiting;
+      if (!fine && stats_.last_problem.empty())
         stats_.last_problem = trackers_->part(i).name() + ": " + results[i].reason;
     }
     if (cloud->empty()) ++stats_.invalid_frames;

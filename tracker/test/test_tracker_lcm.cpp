@@ -94,12 +94,28 @@ TEST_F(TrackerProcess, PublishesPerFrameKeepsRunningOnBadInputStopsCleanly) {
   EXPECT_EQ(got.back().status, +part_pose_t::TRACKING) << got.back().status_reason;
   for (const part_pose_t& m : got) EXPECT_NE(m.utime, 0);
 
+  // 4. A frame refused (not newer), then one tracked at once: the heartbeat still says why the
+  // first was refused (for 2 s), not only until the next frame.
+  bus.publish("POINTS", node::encodeCloud(frame(), 2500));
+  bus.publish("POINTS", node::encodeCloud(frame(), 4000));
+  ASSERT_TRUE(waitFor(4000));
+  const int refused_at = heartbeats;
+  bool said = false;
+  bus.spinUntil(
+      [&] {
+        said = said || (last_heartbeat.state == heartbeat_t::DEGRADED &&
+                        last_heartbeat.state_reason.find("utime 2500, not newer") != std::string::npos);
+        return heartbeats >= refused_at + 3;
+      },
+      5);
+  EXPECT_TRUE(said) << last_heartbeat.state_reason;
+
   const int before = heartbeats;
   ASSERT_TRUE(bus.spinUntil([&] { return heartbeats >= before + 2; }, 5));
   EXPECT_GE(last_heartbeat.decode_errors, 1);
   EXPECT_GT(node::heartbeatStat(last_heartbeat, "frame_ms_p50"), 0);
 
-  // 4. SIGTERM: a clean exit.
+  // 5. SIGTERM: a clean exit.
   EXPECT_EQ(process_.terminate(), 0);
 }
 

@@ -214,6 +214,7 @@ TEST(TrackerNode, ARestartResumesFromTheSavedPoses) {
   TrackerNode fresh(cell, readTrackerOptions(cell));
   for (const part_pose_t& m : feed(fresh, node::encodeCloud(deep, 9)))
     ASSERT_EQ(m.status, +part_pose_t::WAITING) << m.part << ": " << m.status_reason;
+  EXPECT_EQ(fresh.stats().last_problem, "");  // Phase 1 is no problem (the heartbeat stays RUNNING)
   TrackerNode third(cell, readTrackerOptions(cell), saved);
   for (const part_pose_t& m : feed(third, node::encodeCloud(deep, 9))) {
     EXPECT_NE(m.status, +part_pose_t::WAITING) << m.part << ": " << m.status_reason;
