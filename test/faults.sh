@@ -220,7 +220,11 @@ case $FAULT in
 tracker_killed | garbage | clock_jump | clock_step)  # these runs must still finish the part
   grep -A14 "run summary" "launch_$main.out" || true
   # (contacts away from the fault come from tracking accuracy: the summary above prints them)
-  summary_has '"done": true' "the run completed" "the run did not complete cleanly" ;;
+  summary_has '"done": true' "the run completed" "the run did not complete cleanly"
+  if [ "$FAULT" = tracker_killed ]; then
+    summary_has '"depowder-tracker": \{[^}]*"restarts": 1,' "the summary counts the tracker's restart" \
+      "the summary does not count the tracker's restart"
+  fi ;;
 estop | controller_drop)  # the run's summary counts what the driver went through
   key=driver_estops; [ "$FAULT" = controller_drop ] && key=driver_reconnects
   grep -E '"(controller|driver)_' "run_$main/summary.json" || true

@@ -68,13 +68,51 @@ const char* trackName(int s) {
   return s >= 0 && s <= 3 ? names[s] : "?";
 }
 
-// A counter in `process`'s latest heartbeat; -1 when that process or that stat was not heard.
-std::int64_t counter(const std::map<std::string, heartbeat_t>& processes, const std::string& process,
-                     const std::string& name) {
-  const auto it = processes.find(process);
-  if (it == processes.end()) return -1;
-  const double v = node::heartbeatStat(it->second, name);
-  return std::isnan(v) ? -1 : static_cast<std::int64_t>(v);
+// One process (a name on a host) over the run. One restarted (a new pid) counts from 0 again:
+// what its earlier runs had counted is kept, so the summary covers the whole run.
+struct ProcessView {
+  heartbeat_t last{};
+  int restarts = 0;
+  std::int64_t dropped = 0, decode_errors = 0;  // of its earlier runs
+  std::map<std::string, double> stats;          // of its earlier runs
+  std::int64_t peak_rss_kb = 0;
+  double cpu_sum = 0;  // over all heartbeats: the mean is the run's
+  int beats = 0;
+  std::chrono::steady_clock::time_point heard;
+
+  void take(const heartbeat_t& m) {
+    if (beats > 0 && m.pid != last.pid) {
+      ++restarts;
+      dropped += last.dropped;
+      decode_errors += last.decode_errors;
+      for (int i = 0; i < last.num_stats; ++i) stats[last.stat_names[i]] += last.stat_values[i];
+    }
+    last = m;
+    peak_rss_kb = std::max(peak_rss_kb, m.peak_rss_kb);
+    cpu_sum += m.cpu_percent;
+    ++beats;
+    heard = std::chrono::steady_clock::now();
+  }
+  /// A counter over the whole run; NaN if never heard.
+  double total(const std::string& name) const {
+    const auto before = stats.find(name);
+    const double now = node::heartbeatStat(last, name);
+    if (before == stats.end()) return now;
+    return before->second + (std::isnan(now) ? 0 : now);
+  }
+};
+
+// A figure of `process` (summed over the hosts it runs on): a counter over the whole run, or the
+// latest value if not `cumulative`; -1 when that process or that stat was not heard.
+std::int64_t counter(const std::map<std::pair<std::string, std::string>, ProcessView>& processes,
+                     const std::string& process, const std::string& name, bool cumulative = true) {
+  double sum = NAN;
+  for (const auto& [key, view] : processes) {
+    if (key.first != process) continue;
+    const double v = cumulative ? view.total(name) : node::heartbeatStat(view.last, name);
+    if (!std::isnan(v)) sum = (std::isnan(sum) ? 0 : sum) + v;
+  }
+  return std::isnan(sum) ? -1 : static_cast<std::int64_t>(sum);
 }
 
 // A value in summary.json, written by the evaluation's JSON writer: null where a number is not
@@ -124,7 +162,7 @@ int main(int argc, char** argv) {
     const node::LcmConfig lcm = node::toolBus("depowder-monitor", cell, url, prefix);
     node::Bus bus(lcm.url, lcm.prefix);
     std::map<std::string, PartView> parts;
-    std::map<std::string, heartbeat_t> processes;  // latest heartbeat by process name
+    std::map<std::pair<std::string, std::string>, ProcessView> processes;  // by process name and host
     robot_state_t robot{};
     sim_truth_t truth{};
     bool has_truth = false;
@@ -188,8 +226,9 @@ int main(int argc, char** argv) {
       }
     });
     bus.subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t& m, const std::string&) { robot = m; });
-    bus.subscribe<heartbeat_t>("HEARTBEAT",
-                               [&](const heartbeat_t& m, const std::string&) { processes[m.process] = m; });
+    bus.subscribe<heartbeat_t>("HEARTBEAT", [&](const heartbeat_t& m, const std::string&) {
+      processes[{m.process, m.host}].take(m);
+    });
 
     const bool tty = isatty(STDOUT_FILENO);
     auto last_line = start;
@@ -274,7 +313,7 @@ int main(int argc, char** argv) {
         {"driver_safety_stops", counter(processes, "depowder-driver", "safety_stops")},
         {"driver_estops", counter(processes, "depowder-driver", "estops")},
         {"driver_reconnects", counter(processes, "depowder-driver", "reconnects")},
-        {"driver_realtime", counter(processes, "depowder-driver", "realtime")}};  // 1: slave loop SCHED_FIFO
+        {"driver_realtime", counter(processes, "depowder-driver", "realtime", false)}};  // 1: slave loop SCHED_FIFO
     auto shown = [](std::int64_t n) { return n < 0 ? std::string("-") : std::to_string(n); };
     std::printf(
         "  controller errors: slvMove late %s, joint limit %s, too fast %s; driver faults %s, safety stops %s, "
@@ -300,7 +339,7 @@ int main(int argc, char** argv) {
     std::ifstream loadavg("/proc/loadavg");
     if (!(loadavg >> load[0] >> load[1] >> load[2])) load[0] = load[1] = load[2] = -1;  // -1: not known
     std::printf("  machine load average 1 / 5 / 15 min: %.2f / %.2f / %.2f\n", load[0], load[1], load[2]);
-    std::printf("  %-22s %6s %9s %8s %7s\n", "process", "cpu%", "peak_MB", "dropped", "decode");
+    std::printf("  %-22s %6s %9s %8s %7s %8s\n", "process", "cpu%", "peak_MB", "dropped", "decode", "restarts");
     json << "\n  ],\n  \"contacts\": " << contacts;
     for (const auto& [key, n] : arm) json << ",\n  \"" << key << "\": " << n;
     json << ",\n  \"points_lost\": " << points_lost << ",\n  \"part_pose_missing\": " << poses_missing
@@ -313,11 +352,23 @@ int main(int argc, char** argv) {
          << ",\n  \"new_plan_latency_ms_p99\": " << jsonValue(percentile(new_plan_latency_ms, 0.99))
          << ",\n  \"load_average\": [" << load[0] << ", " << load[1] << ", " << load[2] << "],\n  \"processes\": {";
     first = true;
-    for (const auto& [name, h] : processes) {
-      std::printf("  %-22s %6.1f %9.1f %8lld %7lld\n", name.c_str(), h.cpu_percent, h.peak_rss_kb / 1024.0,
-                  static_cast<long long>(h.dropped), static_cast<long long>(h.decode_errors));
-      json << (first ? "\n" : ",\n") << "    " << jsonValue(name) << ": {\"cpu_percent\": " << jsonValue(h.cpu_percent)
-           << ", \"peak_rss_mb\": " << h.peak_rss_kb / 1024.0 << ", \"dropped\": " << h.dropped << "}";
+    // Named by process, and by host too where one name runs on several. CPU is the run's mean;
+    // a process not heard in its last 3 s at the end (crashed, hung) says for how long.
+    std::map<std::string, int> hosts_of;
+    for (const auto& [key, view] : processes) ++hosts_of[key.first];
+    const auto end = std::chrono::steady_clock::now();
+    for (const auto& [key, h] : processes) {
+      const std::string name = hosts_of[key.first] > 1 ? key.first + "@" + key.second : key.first;
+      const double cpu = h.cpu_sum / std::max(h.beats, 1);
+      const double silent_s = std::chrono::duration<double>(end - h.heard).count();
+      const std::int64_t dropped = h.dropped + h.last.dropped, decode = h.decode_errors + h.last.decode_errors;
+      std::printf("  %-22s %6.1f %9.1f %8lld %7lld %8d", name.c_str(), cpu, h.peak_rss_kb / 1024.0,
+                  static_cast<long long>(dropped), static_cast<long long>(decode), h.restarts);
+      if (silent_s > 3) std::printf("  silent for the last %.1f s", silent_s);
+      std::printf("\n");
+      json << (first ? "\n" : ",\n") << "    " << jsonValue(name) << ": {\"cpu_percent\": " << jsonValue(cpu)
+           << ", \"peak_rss_mb\": " << h.peak_rss_kb / 1024.0 << ", \"dropped\": " << dropped
+           << ", \"restarts\": " << h.restarts << ", \"silent_s\": " << jsonValue(silent_s) << "}";
       first = false;
     }
     json << "\n  }\n}\n";

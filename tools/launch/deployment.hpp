@@ -15,7 +15,7 @@ struct ProcessSpec {
   std::string command;            ///< executable; without '/', looked up beside depowder-launch, then in PATH
   std::vector<std::string> args;  ///< ${VAR} expands from --set VAR=value and the built-ins
   Restart restart = Restart::kOnFailure;
-  int max_restarts = 10;       ///< then the process is FAILED
+  int max_restarts = 10;       ///< in a row (each run shorter than stable_after_s), then FAILED
   double start_delay_s = 0.0;  ///< wait before starting the next process
   bool ends_run = false;       ///< when it exits, the launcher stops all and exits with its code
   /// SCHED_FIFO priority (1-99) the process starts with, so other work on the machine cannot

@@ -31,6 +31,7 @@ struct Supervisor::Proc {
   int out_fd = -1;
   std::int8_t state = process_status_t::STARTING;
   int restarts = 0;
+  int in_a_row = 0;  // restarts since the process last ran stable_after_s
   int last_exit = 0;
   bool started_once = false;
   Clock::time_point started_at{};
@@ -154,9 +155,10 @@ void Supervisor::reap() {
       const bool failed = p.last_exit != 0;
       if (p.state == process_status_t::STOPPED) break;
       const bool again = p.spec.restart == Restart::kAlways || (failed && p.spec.restart == Restart::kOnFailure);
-      if (again && p.restarts < p.spec.max_restarts && !p.spec.ends_run) {
+      if (secondsSince(p.started_at) >= options_.stable_after_s) p.in_a_row = 0;  // it had started well
+      if (again && p.in_a_row < p.spec.max_restarts && !p.spec.ends_run) {
         const double delay =
-            std::min(options_.backoff_max_s, options_.backoff_initial_s * (1 << std::min(p.restarts, 16)));
+            std::min(options_.backoff_max_s, options_.backoff_initial_s * (1 << std::min(p.in_a_row, 16)));
         p.state = process_status_t::RESTARTING;
         p.next_start = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay));
         emit(p, "launcher: exited with " + std::to_string(p.last_exit) + "; restart " + std::to_string(p.restarts + 1) +
@@ -164,7 +166,7 @@ void Supervisor::reap() {
       } else {
         p.state = again ? process_status_t::FAILED : process_status_t::EXITED;
         emit(p, "launcher: exited with " + std::to_string(p.last_exit) +
-                    (again ? " (gave up after " + std::to_string(p.restarts) + " restarts)" : ""));
+                    (again ? " (gave up after " + std::to_string(p.in_a_row) + " restarts in a row)" : ""));
       }
       break;
     }
@@ -218,6 +220,7 @@ int Supervisor::run(const std::function<bool()>& stop, const std::function<void(
     for (Proc& p : procs_) {
       if (p.state == process_status_t::RESTARTING && Clock::now() >= p.next_start) {
         ++p.restarts;
+        ++p.in_a_row;
         start(p);
       }
       if (p.spec.ends_run && p.started_once && p.pid == 0 &&

@@ -20,6 +20,9 @@ struct SupervisorOptions {
   bool echo = true;                         ///< copy output lines to our stdout
   double backoff_initial_s = 0.5;           ///< first restart delay, doubled each time
   double backoff_max_s = 8.0;
+  /// A process that ran this long before it exited had started well: its back-off and its count
+  /// towards max_restarts start over (only restarts in a row give up).
+  double stable_after_s = 60.0;
   double stop_timeout_s = 5.0;  ///< SIGTERM, then SIGKILL after this long
 };
 
