@@ -339,6 +339,15 @@ std::optional<Plan> CellPlanner::refresh(std::int64_t utime) {
 }
 
 std::optional<Plan> CellPlanner::hold(const std::string& reason, std::int64_t utime) {
+  // Nothing to plan, with a part in the arm's margins (toppled or pushed onto the nozzle): a cycle
+  // would have begun with the way out of it (escape); the home move does, then holds.
+  if (robot_) {
+    if (const Contact c = world_->checkArm(robot_->q); c && c.part >= 0) {
+      const std::string why = reason.rfind("hold: ", 0) == 0 ? reason.substr(6) : reason;
+      return home(why + "; out of the margins of " + world_->part(static_cast<std::size_t>(c.part)).name() + " first",
+                  utime);
+    }
+  }
   active_is_cycle_ = false;
   if (reason == last_hold_) return std::nullopt;
   last_hold_ = reason;

@@ -184,9 +184,11 @@ struct Pusher {
       tb = t;
       fb = ft;
     }
+    // Out of iterations: the end on the outer side (fa's sign holds; Illinois may have halved
+    // its value, so the distance there is measured again).
     const bool a_outside = fa > 0;
     p = p0 + (a_outside ? ta : tb) * dir;
-    return (a_outside ? fa : fb) + standoff;
+    return a_outside ? distanceAt(p) : fb + standoff;
   }
 };
 

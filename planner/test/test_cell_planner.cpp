@@ -367,6 +367,42 @@ TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFrom) {
   EXPECT_TRUE(c.clean()) << c.first;
 }
 
+// As above, but nothing can be planned then (its PART_POSE has gone stale): the planner does not
+// hold the nozzle inside the part's margins, it goes home by the way out of them.
+TEST_F(CellTest, PartMovingOntoTheNozzleIsEscapedFromWhenNothingCanBePlanned) {
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  auto p1 = planner->step();
+  ASSERT_TRUE(p1 && p1->hasWaypoints());
+  int at = 0;
+  while (p1->waypoints[at].tool != Tool::kVacuum) ++at;
+  at += 10;
+  robotAt(*p1, at);
+  const Point nozzle = p1->waypoints[at].T_cell_nozzle.translation();
+  Eigen::Vector3d toward = nozzle - T_left.translation();
+  toward.z() = 0;
+  Pose moved = T_left;
+  moved.translation() += 0.008 * toward.normalized();
+  utime += 33000;
+  PoseInput pose;
+  pose.part = "left";
+  pose.utime = utime;
+  pose.T_cell_part = moved;
+  pose.status = TrackStatus::kTracking;
+  ASSERT_TRUE(take(pose).ok());
+  utime += 2 * kSecond;  // PROGRESS goes on, PART_POSE does not
+  ASSERT_TRUE(take(progress("left", moved, Phase::kVacuumTracked, 0.04)).ok());
+  robotAt(*p1, at);
+  auto p2 = planner->step();
+  ASSERT_TRUE(p2 && p2->hasWaypoints()) << (p2 ? p2->reason : "");
+  EXPECT_NE(p2->reason.find("stale"), std::string::npos) << p2->reason;
+  EXPECT_NE(p2->reason.find("out of the margins of left first"), std::string::npos) << p2->reason;
+  const Point first = p2->waypoints.front().T_cell_nozzle.translation();
+  EXPECT_GT((first - moved.translation()).head<2>().norm(), (nozzle - moved.translation()).head<2>().norm());
+  EXPECT_TRUE(withTool(*p2, Tool::kVacuum).empty());
+  const CheckReport c = check(*p2, moved, T_right);
+  EXPECT_TRUE(c.clean()) << c.first;
+}
+
 TEST_F(CellTest, PartAgainstTheEffectorBodyIsEscapedFrom) {
   // A part knocked up against the end effector's body (28.6 mm radius, from 12.1 cm above the
   // tip), clear of the thinner nozzle tube: its face 3 cm from the tool's axis is outside the
