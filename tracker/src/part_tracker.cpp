@@ -476,9 +476,11 @@ TrackResult PartTracker::track(const Cloud& scan, const std::vector<Point>& view
   // (DEGRADED: the part mostly occluded, e.g. by the nozzle) does not re-derive the template, in
   // any method: Alg. 2 at a wrong pose would lock the error in.
   r.update = decideTemplateUpdate(config_.method, T_cell_part_, eta_, last_update_, thresholdsOf(config_));
-  // After a refit the template, derived at the wrong pose, is derived again (Vanilla has none).
+  // After a refit the template, derived at the wrong pose, is derived again (Vanilla has none),
+  // also on a frame whose ICP fit was doubtful: the refit replaced that fit, explaining the scan
+  // better.
   if (refitted && config_.method != Method::kVanilla) r.update.update = true;
-  if (r.update.update && r.status == TrackStatus::kTracking) {
+  if (r.update.update && (r.status == TrackStatus::kTracking || refitted)) {
     t0 = Clock::now();
     setTemplate(deriveTemplate(cad_.points, T_cell_part_, grid, xi_));  // line 13, Alg. 2
     r.timing.template_ms += msSince(t0);

@@ -626,6 +626,37 @@ TEST(PartTracker, RefitRecoversAWrongPoseOfADugOutPart) {
   EXPECT_GT(err_without, 15.0);
 }
 
+// A refit on a frame whose ICP fit was doubtful (DEGRADED: here every fit is, by a residual
+// limit no fit meets) derives the template again at the refitted pose, as on any other frame:
+// the template of the wrong pose, kept, lacks the points that hold the refitted pose. The pipe
+// (eta 1) is tracked still for 5 frames, then turned 30 deg at once about the vertical, as by a
+// fall.
+TEST(PartTracker, ARefitOnADoubtfulFrameDerivesTheTemplateAgain) {
+  Sequence s = makeSequence("pipe", 1.0, 5, 0.0, 0.0, 11);
+  Pose T_turned = s.truth[0];
+  T_turned.linear() = Eigen::AngleAxisd(30.0 * M_PI / 180, Eigen::Vector3d::UnitZ()) * s.truth[0].linear();
+  const double powder_z = scene::powderHeightFor(s.mesh, s.truth[0], 1.0);
+  std::mt19937 rng(12);
+  for (int k = 0; k < 10; ++k) s.frames.push_back(scene::render({{&s.mesh, T_turned}}, powder_z, {}, rng));
+  TrackerConfig config = defaults();
+  config.filter.reset_frames = 0;
+  config.status.tracking_max_rms = 1e-6;
+  PartTracker tracker("pipe", s.mesh, s.truth[0], 0.008, config);
+  int refits = 0;
+  TrackResult r;
+  for (std::size_t k = 0; k < s.frames.size(); ++k) {
+    r = tracker.track(s.frames[k]);
+    if (!r.refit) continue;
+    ++refits;
+    EXPECT_GE(k, 5u);
+    EXPECT_EQ(r.status, TrackStatus::kDegraded) << r.reason;
+    EXPECT_TRUE(r.template_updated) << "frame " << k;
+  }
+  std::printf("pipe turned 30 deg at once: %d refits, last %.2f deg off\n", refits, rotErrDeg(r.T_cell_part, T_turned));
+  EXPECT_GE(refits, 1);
+  EXPECT_LT(rotErrDeg(r.T_cell_part, T_turned), 4.0);
+}
+
 // The refit runs on the frames the disagreement check is due (every frame while the part moves
 // or its fits disagree, every check_every-th while a still part's fits agree), and every frame
 // without the check. A still, dug-out pipe tracked from its true pose: lines of sight judged only
