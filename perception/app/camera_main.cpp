@@ -230,7 +230,9 @@ class CameraNode {
     for (const CameraHealth& h : proxy_.health(node::steadyUtime())) {
       heartbeat_.setStat("age_s_" + h.name, h.last_seen_age);
       heartbeat_.setStat("lag_s_" + h.name, h.utime_lag);
-      if (h.silent) {
+      if (h.silent && !h.refused.empty()) {
+        reason += "camera " + h.name + " sends only frames refused (" + h.refused + "); ";
+      } else if (h.silent) {
         reason += "camera " + h.name +
                   (h.last_seen_age < 0 ? std::string(" never seen")
                                        : " silent for " + std::to_string(static_cast<int>(h.last_seen_age)) + " s");

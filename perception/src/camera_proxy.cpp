@@ -113,9 +113,20 @@ FrameError CameraProxy::accept(CameraCloud&& cloud, const std::string& camera, s
   FrameError result = cloud.error;
   if (result.ok() && !utimeInRange(utime))
     result = {FrameStatus::kBadHeader, "camera '" + camera + "': " + utimeOutOfRange(utime)};
+  if (!result.ok() && merger_.knows(camera)) refused_[camera] = {arrival, result.message};
   if (result.ok()) result = merger_.add(CameraFrame{camera, utime, std::move(cloud.points)}, arrival);
   reject(result);
   return result;
+}
+
+std::vector<CameraHealth> CameraProxy::health(std::int64_t now) const {
+  std::vector<CameraHealth> out = merger_.health(now);
+  const auto silent_after = static_cast<std::int64_t>(config_.merger.silent_after * 1e6);
+  for (CameraHealth& h : out)
+    if (const auto it = refused_.find(h.name);
+        h.silent && it != refused_.end() && now - it->second.first <= silent_after)
+      h.refused = it->second.second;
+  return out;
 }
 
 std::vector<CellCloud> CameraProxy::poll(std::int64_t now) {

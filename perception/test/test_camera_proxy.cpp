@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <map>
 #include <random>
 
 #include "depowder/clock.hpp"
@@ -155,6 +156,34 @@ TEST(CameraProxy, CameraNamesPastTheMostTakenAreRefused) {
   EXPECT_TRUE(proxy.addDepth(render(s, rig[1], t), rig[1], t).ok());
   EXPECT_EQ(proxy.counters().by_status[static_cast<int>(FrameStatus::kBadHeader)], 2);
   EXPECT_EQ(proxy.deprojectionTables(), 15u);  // RIGHT and CAM2..CAM15; LEFT sent nothing
+}
+
+// A camera whose frames come but are all refused before merging (here absurd intrinsics) is
+// silent to the merger; its health says its frames are refused, and why. One that sends nothing
+// is silent only.
+TEST(CameraProxy, ACameraSendingOnlyRefusedFramesIsToldFromASilentOne) {
+  auto rig = defaultRig(80, 60);
+  const Scene s = scene();
+  CameraProxy proxy(PerceptionConfig{}, kBox, {"LEFT", "RIGHT", "TOP"});
+  PinholeCamera absurd = rig[1];
+  absurd.fx = 1e-310;
+  std::int64_t t = kT0;
+  for (int k = 0; k < 60; ++k, t += 33'333) {
+    ASSERT_TRUE(proxy.addDepth(render(s, rig[0], t), rig[0], t).ok());
+    EXPECT_EQ(proxy.addDepth(render(s, absurd, t), absurd, t).status, FrameStatus::kBadHeader);
+    proxy.poll(t + 50'000);
+  }
+  std::map<std::string, CameraHealth> health;
+  for (const CameraHealth& h : proxy.health(t)) health[h.name] = h;
+  EXPECT_FALSE(health["LEFT"].silent);
+  EXPECT_EQ(health["LEFT"].refused, "");
+  EXPECT_TRUE(health["RIGHT"].silent);
+  EXPECT_NE(health["RIGHT"].refused.find("89.9 deg off the optical axis"), std::string::npos)
+      << health["RIGHT"].refused;
+  EXPECT_TRUE(health["TOP"].silent);
+  EXPECT_EQ(health["TOP"].refused, "");
+  // Once its refused frames stop too, it is silent only.
+  for (const CameraHealth& h : proxy.health(t + 2'000'000)) EXPECT_EQ(h.refused, "") << h.name;
 }
 
 // Frames refused before the merger takes their camera (no valid return here) keep no tables under

@@ -72,15 +72,17 @@ class CameraProxy {
   void reject(const FrameError& error);
 
   /// The nozzle's pose at `utime` (ROBOT_STATE): points on it are removed from the time steps
-  /// nearest it (config.self_filter). Poses must come in time order: an older one is ignored,
-  /// unless it is so much older that the robot's clock went back (depowder/clock.hpp), and
-  /// then the poses kept start over from it.
+  /// nearest it (config.self_filter). Poses are kept in time order, however they come (the
+  /// newest kNozzlePoses); one so much older than the newest that the robot's clock went back
+  /// (depowder/clock.hpp) starts them over.
   void addNozzlePose(std::int64_t utime, const Pose& T_cell_nozzle);
   /// Clouds ready at wall-clock `now`, oldest first.
   std::vector<CellCloud> poll(std::int64_t now);
 
   std::int64_t nextDeadline() const { return merger_.nextDeadline(); }
-  std::vector<CameraHealth> health(std::int64_t now) const { return merger_.health(now); }
+  /// The merger's health of each camera; a silent one whose frames come but are refused before
+  /// merging (a bad header, absurd intrinsics) says so, with the last one's reason.
+  std::vector<CameraHealth> health(std::int64_t now) const;
   /// Times the cameras' clock went back and the time steps started over (FrameMerger), and the last, said.
   std::int64_t clockRestarts() const { return merger_.restarts(); }
   const std::string& lastClockRestart() const { return merger_.lastRestart(); }
@@ -111,6 +113,8 @@ class CameraProxy {
   std::deque<std::pair<std::int64_t, Pose>> nozzle_poses_;  ///< the newest ROBOT_STATE poses, oldest first
   Eigen::Vector3d box_size_;
   std::map<std::string, CameraAgreement> agreement_;
+  /// Per camera the merger knows: when its last frame refused before merging arrived, and why.
+  std::map<std::string, std::pair<std::int64_t, std::string>> refused_;
   std::int64_t last_check_ = 0;  ///< utime of the newest agreement check
 };
 

@@ -49,6 +49,9 @@ struct CameraHealth {
   double utime_lag = 0;       ///< s its newest utime lags the newest of all cameras
   bool silent = false;        ///< never seen, or nothing for silent_after (then not waited for)
   bool stale = false;         ///< utime_lag > stale_after (then not waited for)
+  /// Silent, but its frames come and are refused before merging (CameraProxy::health): the last
+  /// one's reason; "" otherwise.
+  std::string refused;
 };
 
 class FrameMerger {
