@@ -109,8 +109,10 @@ TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions&
     if (saved != resume.end()) parts.back().resume();  // only parts past Phase 1 are saved
   }
   trackers_ = std::make_unique<MultiTracker>(std::move(parts), options_.threads);
-  if (options_.cull_with_cameras)
-    for (const node::CameraConfig& cam : cell.cameras) cameras_[cam.name] = cam.T_cell_camera.translation();
+  for (const node::CameraConfig& cam : cell.cameras) {
+    camera_names_.insert(cam.name);
+    if (options_.cull_with_cameras) cameras_[cam.name] = cam.T_cell_camera.translation();
+  }
   for (const node::CameraConfig& cam : cell.cameras) frame_rate_ = std::max(frame_rate_, cam.rate_hz);
   published_version_.assign(trackers_->size(), -1);
   encoded_.resize(trackers_->size());
@@ -230,14 +232,18 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg, std::in
   } else {
     // Cull the template with the cameras that saw this frame: with one silent, the points only
     // it could see are not in the scan and would pull ICP onto the powder.
+    // Without culling by camera (cull_with_cameras false) a silent one is still said.
     std::vector<Point> seen_from;
     std::string seen_names;
+    std::size_t seen = 0;
     for (const std::string& source : msg.sources)
-      if (const auto cam = cameras_.find(source); cam != cameras_.end()) {
-        seen_from.push_back(cam->second);
+      if (camera_names_.count(source) > 0) {
+        ++seen;
         seen_names += (seen_names.empty() ? "" : ", ") + source;
+        if (const auto cam = cameras_.find(source); cam != cameras_.end()) seen_from.push_back(cam->second);
       }
-    const bool partial = !seen_from.empty() && seen_from.size() < cameras_.size();
+    const bool partial = seen > 0 && seen < camera_names_.size();
+    const bool cull = partial && !seen_from.empty();
     // Frames dropped since the parts last tracked (this process tracks the newest POINTS only):
     // the filter's prediction covers the time (PartTracker::elapse). 1 after the clock went back.
     if (tracked_utime_ >= 0 && msg.utime > tracked_utime_ && frame_rate_ > 0) {
@@ -246,10 +252,11 @@ std::vector<part_pose_t> TrackerNode::onPoints(const point_cloud_t& msg, std::in
       stats_.max_gap_periods = std::max(stats_.max_gap_periods, periods);
     }
     tracked_utime_ = msg.utime;
-    const std::vector<TrackResult> results = partial ? trackers_->track(*cloud, seen_from) : trackers_->track(*cloud);
+    const std::vector<TrackResult> results = cull ? trackers_->track(*cloud, seen_from) : trackers_->track(*cloud);
     last_results_ = results;
     stats_.last_problem.clear();
-    if (partial) stats_.last_problem = "POINTS from " + seen_names + " only: tracking on those cameras";
+    if (partial)
+      stats_.last_problem = "POINTS from " + seen_names + " only" + (cull ? ": tracking on those cameras" : "");
     for (std::size_t i = 0; i < results.size(); ++i) {
       out.push_back(toMessage(msg.utime, i, results[i]));
       if (trackers_->part(i).started()) last_poses_[trackers_->part(i).name()] = {results[i].T_cell_part, msg.utime};

@@ -7,6 +7,7 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,7 @@ class TrackerNode {
   double frame_rate_ = 0;            ///< Hz, the cell's fastest camera: the period of POINTS
   std::map<std::string, SavedPose> last_poses_;
   std::map<std::string, Point> cameras_;  ///< name -> position (cell), for per-frame culling
+  std::set<std::string> camera_names_;    ///< the cell's cameras, for a frame that lacks some
 };
 
 }  // namespace depowder::tracker

@@ -275,6 +275,16 @@ TEST(TrackerNode, WithOneCameraSilentTrackingGoesOnWithTheOther) {
   EXPECT_LT(rotationAngle(cube.linear(), s.cube_truth.linear()) * 180 / M_PI, 3.0);
   EXPECT_LT(translationDistance(owl, s.owl_truth), 0.003);
   EXPECT_LT(rotationAngle(owl.linear(), s.owl_truth.linear()) * 180 / M_PI, 3.0);
+
+  // Without culling by camera the silent one is said all the same.
+  const node::CellConfig no_cull = node::loadCellFromString(s.yaml("{cull_with_cameras: false}"));
+  TrackerNode plain(no_cull, readTrackerOptions(no_cull));
+  point_cloud_t msg = node::encodeCloud(s.frames(1)[0], 200);
+  msg.sources = {"RIGHT"};
+  msg.source_utimes = {200};
+  msg.num_sources = 1;
+  feed(plain, msg);
+  EXPECT_EQ(plain.stats().last_problem, "POINTS from RIGHT only");
 }
 
 TEST(TrackerNode, BadFramesAreReportedAndTrackingGoesOn) {
