@@ -541,6 +541,7 @@ std::optional<Plan> CellPlanner::step() {
     }
     Plan plan = planCycle(*world_, request, config_);
     plan.utime = utime;
+    if (!robot_ && !plan.hasWaypoints()) plan.reason += " (planned from the arm's home joints: no ROBOT_STATE yet)";
     if (!blocked.empty())
       plan.reason = "another part in the cycle's way (" + blocked + "), planned anew: " + plan.reason;
     if (dropped) plan.reason = "the driver dropped the cycle away from its start, planned anew: " + plan.reason;

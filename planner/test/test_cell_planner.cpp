@@ -322,6 +322,20 @@ TEST_F(CellTest, MovingPartSendsTheNozzleAwayUntilItKeepsStill) {
   EXPECT_TRUE(check(*resumed, tipped, T_right).clean()) << check(*resumed, tipped, T_right).first;
 }
 
+// Before the driver's first ROBOT_STATE a cycle is planned from the arm's home joints; one that
+// cannot be planned from there says so (its home nozzle outside the workspace here), not only
+// that "the arm is in collision".
+TEST_F(CellTest, ACycleThatFailsBeforeAnyRobotStateSaysWhereItWasPlannedFrom) {
+  config.collision.workspace_max.z() = robot::forwardNozzle(*arm, arm->q_home).translation().z() - 0.01;
+  SetUp();
+  frame("left", T_left, Phase::kVacuumTracked, 0.04);
+  const auto p = planner->step();
+  ASSERT_TRUE(p);
+  EXPECT_FALSE(p->hasWaypoints());
+  EXPECT_NE(p->reason.find("the arm is in collision (workspace)"), std::string::npos) << p->reason;
+  EXPECT_NE(p->reason.find("(planned from the arm's home joints: no ROBOT_STATE yet)"), std::string::npos) << p->reason;
+}
+
 // The watch measures from a pose at most settle_s old: an estimate drifting by 0.5 cm/s (2.5 cm
 // over 5 s, under 1 cm within any settle_s) is not a part on the move.
 TEST_F(CellTest, ASlowDriftOfTheEstimateIsNotAMotion) {
