@@ -331,6 +331,7 @@ std::vector<double> BcapEmulator::jointsDegreesLocked() const {
 void BcapEmulator::restLocked() {
   qd_ = {};
   on_the_way_.clear();  // the arm stays where it is
+  async_targets_.clear();
   last_move_ns_ = 0;
   cycle_origin_ns_ = 0;
 }
@@ -366,11 +367,16 @@ Packet BcapEmulator::handle(const Packet& req, int connection, const PartialRepl
       std::size_t at = 0;
       while (at <= option->size()) {
         const std::size_t end = std::min(option->find(',', at), option->size());
-        const std::string item = option->substr(at, end - at);
-        if (item.size() > 4 && (item.compare(0, 4, "WDT=") == 0 || item.compare(0, 4, "wdt=") == 0)) {
-          const double ms = std::atof(item.c_str() + 4);
-          if (!(ms >= 0 && ms <= 60000))  // 0 asks for none
-            return error(req, hr::E_INVALIDARG, "the watchdog period " + item + " is not 0 to 60000 ms");
+        std::string item = option->substr(at, end - at);
+        item.erase(0, item.find_first_not_of(' '));
+        item.erase(item.find_last_not_of(' ') + 1);
+        if (item.size() >= 4 && (item.compare(0, 4, "WDT=") == 0 || item.compare(0, 4, "wdt=") == 0)) {
+          // A number, all of it: 0 asks for none, else 1 ms (a reply per ms at most) to 60 s.
+          const char* first = item.c_str() + 4;
+          char* last = nullptr;
+          const double ms = std::strtod(first, &last);
+          if (last == first || *last != '\0' || !(ms == 0 || (ms >= 1 && ms <= 60000)))
+            return error(req, hr::E_INVALIDARG, "the watchdog period '" + item + "' is not 0 or 1 to 60000 ms");
           if (ms > 0) wdt_s_[connection] = ms / 1000;
         }
         at = end + 1;
@@ -591,18 +597,34 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
                    "J" + std::to_string(i + 1) + " target " + std::to_string((*values)[i]) + " deg outside its limits");
     }
   }
-  // A target is checked against the one before it: that is the step the client commanded.
-  const robot::Joints& previous = on_the_way_.empty() ? q_ : on_the_way_.back();
+  // A target is checked against the one the client commanded a cycle before. In sync mode that is
+  // the previous target (one per cycle). In async mode commands take effect as they come, so a
+  // burst within one cycle is one step: from the target in effect a cycle ago (or from where the
+  // arm was when the burst began).
+  const robot::Joints previous = on_the_way_.empty() ? q_ : on_the_way_.back();
+  robot::Joints reference = previous;
+  std::int64_t since_ns = cycle_ns;
+  if (!sync) {
+    while (async_targets_.size() >= 2 && arrival - async_targets_[1].at_ns >= cycle_ns) async_targets_.pop_front();
+    if (!async_targets_.empty()) {
+      const AsyncTarget& first = async_targets_.front();
+      const bool settled = arrival - first.at_ns >= cycle_ns;
+      reference = settled ? first.target : first.before;
+      if (!settled) since_ns = arrival - first.at_ns;
+    }
+  }
   for (int i = 0; i < 6; ++i) {
-    const double step = std::abs(target[i] - previous[i]);
+    const double step = std::abs(target[i] - reference[i]);
     if (step > config_.qd_max[i] * config_.cycle_s * config_.speed_margin) {
       ++stats_.speed_errors;
       stopArmLocked(true);
       error_pending_ = true;
+      const std::string in = since_ns >= cycle_ns ? "one cycle" : std::to_string(since_ns / 1000) + " us";
       return error(req, hr::E_SPEED_LIMIT,
-                   "J" + std::to_string(i + 1) + " step " + std::to_string(step * kDeg) + " deg in one cycle");
+                   "J" + std::to_string(i + 1) + " step " + std::to_string(step * kDeg) + " deg in " + in);
     }
   }
+  if (!sync) async_targets_.push_back({arrival, target, previous});
 
   std::int64_t apply_at = arrival;
   if (sync) {

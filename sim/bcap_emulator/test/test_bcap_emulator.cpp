@@ -284,17 +284,21 @@ TEST(BcapEmulator, StillExecutingRepliesOnlyWithAWatchdogOption) {
 }
 
 // A watchdog period the emulator cannot keep (inf, NaN, 1e300 ms: its nanoseconds once overflowed
-// an integer) is refused, and the connection stays usable.
+// an integer; 0.00001 ms: a reply every 10 ns) or cannot read ("abc" once meant none) is refused,
+// and the connection stays usable.
 TEST(BcapEmulator, AnImpossibleWatchdogPeriodIsRefused) {
   BcapEmulator emu(testConfig());
   ASSERT_TRUE(emu.start());
   Client c(clientConfig(emu.port()));
   ASSERT_TRUE(c.connect().ok());
-  for (const char* option : {"WDT=1e300", ",WDT=inf", "WDT=nan", "WDT=-5"}) {
+  for (const char* option :
+       {"WDT=1e300", ",WDT=inf", "WDT=nan", "WDT=-5", "WDT=0.00001", "WDT=abc", "WDT=", " WDT=4x"}) {
     const auto r = c.serviceStart(option);
     EXPECT_EQ(r.hresult, hr::E_INVALIDARG) << option << ": " << r.error;
   }
   EXPECT_TRUE(c.serviceStart("WDT=400").ok());
+  EXPECT_TRUE(c.serviceStart(" WDT=400 ,InvokeTimeout=180000").ok());
+  EXPECT_TRUE(c.serviceStart("WDT=0").ok());
 }
 
 TEST(BcapEmulator, TimeoutWhenNobodyAnswers) {
@@ -444,6 +448,31 @@ TEST_F(AsyncSession, HasNoLateError) {
   ASSERT_TRUE(move(c, s, q).ok());
   std::this_thread::sleep_for(std::chrono::milliseconds(30));
   EXPECT_TRUE(move(c, s, q).ok());
+}
+
+// In async mode a command takes effect when it comes: steps each within the per-cycle limit
+// (0.03 of 0.047 rad on J1) but sent back to back, faster than the cycle, add up to one step that
+// is too fast. Only a step more than a cycle after the previous one starts from it.
+TEST_F(AsyncSession, ABurstFasterThanTheCycleIsRefused) {
+  robot::Joints q = emu.joints().q;
+  CallResult r;
+  int accepted = 0;
+  for (int i = 0; i < 5 && (r = move(c, s, q)).ok(); ++i, ++accepted) q[0] += 0.03;
+  EXPECT_EQ(r.hresult, hr::E_SPEED_LIMIT) << r.error;
+  EXPECT_LT(accepted, 5);
+  EXPECT_EQ(emu.stats().speed_errors, 1);
+  EXPECT_TRUE(emu.halted());
+}
+
+TEST_F(AsyncSession, StepsACycleApartAreAccepted) {
+  robot::Joints q = emu.joints().q;
+  for (int i = 0; i < 5; ++i) {
+    q[0] += 0.03;
+    const CallResult r = move(c, s, q);
+    EXPECT_TRUE(r.ok()) << "step " << i << ": " << r.error;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // the cycle is 8 ms
+  }
+  EXPECT_EQ(emu.stats().speed_errors, 0);
 }
 
 TEST_F(SlaveSession, RefusesTargetsOutsideLimitsAndTooFast) {

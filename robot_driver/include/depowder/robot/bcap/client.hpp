@@ -68,8 +68,8 @@ class Client {
   /// "Still executing" replies seen.
   std::int64_t executingReplies() const { return executing_replies_; }
 
-  // Typed calls of the session in REFERENCE.md. Handles go out as VT_I4, as every DENSO client
-  // sends them (and as the controller returns them).
+  // Typed calls of the session in REFERENCE.md. Handles go out as VT_I4, as DENSO's b-CAP C
+  // client library sends them (and as the controller returns them).
   /// `option`: e.g. "WDT=400", the controller then answers "still executing" every 400 ms while a
   /// call runs (without it, DENSO's server sends none and a long call looks like a lost controller).
   CallResult serviceStart(const std::string& option = "");

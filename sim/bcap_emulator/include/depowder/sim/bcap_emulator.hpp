@@ -168,6 +168,11 @@ class BcapEmulator {
   robot::Joints q_{};  ///< where the arm is
   robot::Joints qd_{};
   std::deque<robot::Joints> on_the_way_;  ///< targets the arm has not reached yet (servo_lag_cycles)
+  struct AsyncTarget {
+    std::int64_t at_ns;            ///< CLOCK_MONOTONIC of its arrival
+    robot::Joints target, before;  ///< the command, and the target in effect when it came
+  };
+  std::deque<AsyncTarget> async_targets_;  ///< async slave mode: the commands of the last cycle and the one before
   bool motor_on_ = false;
   int arm_owner_ = 0;  ///< connection id, 0 = free
   int slave_mode_ = 0;
