@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cstring>
 #include <iostream>
+#include <stdexcept>
+#include <string>
 #include <thread>
 
 #include "depowder/depth_image_t.hpp"
@@ -130,6 +132,11 @@ int main(int argc, char** argv) {
     if (seed >= 0) setup.seed = static_cast<std::uint32_t>(seed);
     std::unique_ptr<World> world = makeWorld(setup);
     if (!arm_choice.empty()) setup.arm = arm_choice;
+    for (const SimSetup::Fault& f : setup.faults)
+      if (f.drop_controller && setup.arm != "emulator")
+        throw std::runtime_error("the fault at t = " + std::to_string(f.at) +
+                                 " s drops the controller's connections, which needs the emulator: not with --arm " +
+                                 setup.arm);
     NozzleScript script(setup.script, setup.script_loop);
     ArmSource* arm = &script;
     std::unique_ptr<PushScript> push = makePushScript(setup, *world);  // sim.push: the nozzle pushes a part

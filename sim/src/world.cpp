@@ -462,7 +462,18 @@ void World::movePart(std::size_t part, const Pose& T_cell_part) {
 }
 
 void World::setPartMotion(std::size_t part, const Motion& motion) {
-  PartState& p = parts_.at(part);
+  if (part >= parts_.size())
+    throw std::invalid_argument("World::setPartMotion: no part " + std::to_string(part) + " (the cell has " +
+                                std::to_string(parts_.size()) + ")");
+  PartState& p = parts_[part];
+  const auto refuse = [&](const std::string& what) {
+    throw std::invalid_argument("World::setPartMotion: part '" + p.spec.name + "': " + what);
+  };
+  if (!motion.velocity.allFinite()) refuse("the velocity is not finite");
+  if (!std::isfinite(motion.rate)) refuse("the turntable rate is not finite");
+  if (motion.centre && !motion.centre->allFinite()) refuse("the turntable centre is not finite");
+  if (!std::isfinite(motion.start)) refuse("the start is not finite");
+  if (!(motion.duration >= 0)) refuse("the duration is negative or NaN");  // infinity: until cleared
   PartState::Scripted s;
   s.motion = motion;
   s.motion.start = std::max(motion.start, time_);

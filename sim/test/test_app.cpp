@@ -203,6 +203,16 @@ TEST(SimProcess, ErrorsExitNonZeroWithTheReason) {
   EXPECT_EQ(run("--seed -3"), 2);
 }
 
+// The config's check (drop_controller needs arm: emulator) holds when --arm overrides the config's
+// choice too: the fault would otherwise be announced and do nothing.
+TEST(SimProcess, ADroppedControllerWithoutTheEmulatorIsRefusedFromTheCommandLineToo) {
+  const std::string cell = cellWithSim("drop.yaml", "  arm: emulator\n  faults: [{at: 0.05, drop_controller: true}]\n");
+  EXPECT_EQ(run("--cell " + cell + " --arm script --fast --duration 0.1"), 1);
+  const std::string err = slurp(scratch() / "err.txt");
+  EXPECT_NE(err.find("needs the emulator"), std::string::npos) << err;
+  EXPECT_NE(err.find("--arm script"), std::string::npos) << err;
+}
+
 TEST(SimProcess, SeededFastRunIsBitIdenticalTwice) {
   const std::string scenario = kSource + "/config/scenarios/static.yaml";
   const std::string a = (scratch() / "a.lcmlog").string(), b = (scratch() / "b.lcmlog").string(),

@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "depowder/parts.hpp"
 #include "depowder/sim/physics.hpp"
@@ -160,6 +163,46 @@ TEST_P(ScriptedMotion, ActuatorKeepsItsSpeedAndTheVisibility) {
   EXPECT_FALSE(world.hasPartMotion(0));
   EXPECT_LT(world.partTruth(0).speed, 1e-3);
   EXPECT_NEAR(world.part(0).T_cell_part.translation().x(), -0.05 + 0.03 * 3.0, 0.001);
+}
+
+// A motion the world cannot run (a NaN or infinite figure, a negative duration) or a part it does
+// not have is refused with the part named, and the part stays as it was.
+TEST(ScriptedMotionInput, ABadMotionOrPartIsRefused) {
+  World world(physicsConfig(), BoxGeometry{}, {{"cube", parts::cube(), at(-0.05, 0, 0.03), 1000}}, {});
+  const auto refused = [&](const Motion& m, std::size_t part, const std::string& says) {
+    try {
+      world.setPartMotion(part, m);
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+      return true;
+    }
+    return false;
+  };
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  Motion m;
+  m.velocity.y() = nan;
+  EXPECT_TRUE(refused(m, 0, "part 'cube': the velocity"));
+  m = Motion{};
+  m.kind = Motion::Kind::kTurntable;
+  m.rate = inf;
+  EXPECT_TRUE(refused(m, 0, "rate"));
+  m.rate = 0.5;
+  m.centre = Eigen::Vector2d(0, nan);
+  EXPECT_TRUE(refused(m, 0, "centre"));
+  m = Motion{};
+  m.duration = -1;
+  EXPECT_TRUE(refused(m, 0, "duration"));
+  m.duration = nan;
+  EXPECT_TRUE(refused(m, 0, "duration"));
+  m = Motion{};
+  m.start = nan;
+  EXPECT_TRUE(refused(m, 0, "start"));
+  EXPECT_TRUE(refused(Motion{}, 1, "no part 1"));
+  EXPECT_FALSE(world.hasPartMotion(0));
+  EXPECT_THROW(world.part(1), std::out_of_range);
+  // A good one still runs, for ever by default.
+  EXPECT_FALSE(refused(Motion{}, 0, ""));
+  EXPECT_TRUE(world.hasPartMotion(0));
 }
 
 TEST_P(ScriptedMotion, TurntableKeepsItsRateAboutThePartsCentre) {

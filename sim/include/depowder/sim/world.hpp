@@ -124,6 +124,8 @@ class World {
   /// A scripted motion (paper Fig. 10): from now on the part is moved, not simulated (kinematic: it
   /// pushes other parts, nothing pushes it). It holds until motion.start (a start in the past means
   /// now), moves until start + duration, then is released (physics: a free body at rest).
+  /// Throws std::invalid_argument naming the part for a part that does not exist or a motion with
+  /// a non-finite velocity, rate, centre or start, or a negative or NaN duration.
   void setPartMotion(std::size_t part, const Motion& motion);
   /// Ends a scripted motion now (the part stays where it is, free again).
   void clearPartMotion(std::size_t part);
@@ -157,7 +159,7 @@ class World {
   const BoxGeometry& box() const { return box_; }
   const SimConfig& config() const { return config_; }
   std::size_t partCount() const { return parts_.size(); }
-  const PartSpec& part(std::size_t i) const { return parts_[i].spec; }
+  const PartSpec& part(std::size_t i) const { return parts_.at(i).spec; }
   /// Index of the part called `name`; throws std::invalid_argument naming the known parts.
   std::size_t partIndex(const std::string& name) const;
   /// All the powder in the box, m^3: above the floors and hidden under the parts (each column's
