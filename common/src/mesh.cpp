@@ -50,8 +50,11 @@ Mesh parseAsciiStl(const std::string& path, const std::string& data) {
   std::string word;
   Mesh mesh;
   int in_facet = 0;
+  bool ended = false;
   while (in >> word) {
-    if (word == "vertex") {
+    if (word == "endsolid") {
+      ended = true;
+    } else if (word == "vertex") {
       Eigen::Vector3d v;
       if (!(in >> v.x() >> v.y() >> v.z())) fail(path, "malformed ascii STL vertex");
       mesh.vertices.push_back(v);
@@ -63,6 +66,9 @@ Mesh parseAsciiStl(const std::string& path, const std::string& data) {
       in_facet = 0;
     }
   }
+  // A file cut short (a copy or transfer that stopped) must not load as a part with facets missing.
+  if (in_facet != 0) fail(path, "ascii STL ends inside a facet (truncated?)");
+  if (!ended) fail(path, "ascii STL has no 'endsolid' (truncated?)");
   return mesh;
 }
 

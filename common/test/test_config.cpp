@@ -64,6 +64,10 @@ TEST(Config, BadKeysAndValuesNameFileKeyAndRange) {
               {"'parts[0].initial_pose.rpy_deg'"});
   expectError("parts:\n  - {name: p, mesh: a.stl, initial_pose: {xyz: [0, 0, .nan]}}\n",
               {"'parts[0].initial_pose.xyz'", "finite"});
+  expectError("parts:\n  - {name: p, mesh: a.stl, initial_pose: {quat_wxyz: [1, 0, zero, 0]}}\n",
+              {"'parts[0].initial_pose.quat_wxyz'", "a number"});
+  // look_at alone once put the camera at the cell's origin, looking from there.
+  expectError("cameras:\n  - {name: A, look_at: [0, 0, 0.05]}\n", {"'cameras[0].position'", "required with look_at"});
   expectError("parts: {name: p}\n", {"'parts'", "must be a list"});
   expectError("box: [1, 2\n", {"bad.yaml", "not valid YAML"});
   try {

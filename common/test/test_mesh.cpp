@@ -106,6 +106,7 @@ TEST(MeshLoad, PlyBinary) {
 }
 
 TEST(MeshLoad, BrokenFilesNameTheFile) {
+  const std::string ascii = kAsciiStl;
   const std::vector<std::pair<std::string, std::string>> broken = {
       {"missing.stl", ""},  // not written: does not exist
       {"empty.stl", "\n"},
@@ -115,6 +116,10 @@ TEST(MeshLoad, BrokenFilesNameTheFile) {
       {"short.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nend_header\n0\n"},
       {"flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"},
       {"mesh.xyz", "0 0 0\n"},
+      // the tetrahedron's ascii STL cut short: inside its last facet (three faces would load), or
+      // after it without the closing endsolid
+      {"cut.stl", ascii.substr(0, ascii.rfind(" endloop"))},
+      {"nosolidend.stl", ascii.substr(0, ascii.rfind("endsolid"))},
   };
   for (const auto& [name, content] : broken) {
     const std::string path =

@@ -42,6 +42,7 @@ CameraConfig readCamera(const YamlReader& r) {
   r.read("max_range", c.max_range, 0.01, 100.0);
   if (c.max_range <= c.min_range) r.fail("max_range", "must be greater than min_range");
   if (r.has("look_at")) {
+    if (!r.has("position")) r.fail("position", "is required with look_at (where the camera is)");
     Eigen::Vector3d position = Eigen::Vector3d::Zero(), target = Eigen::Vector3d::Zero();
     r.readVector3("position", position);
     r.readVector3("look_at", target);

@@ -82,8 +82,8 @@ void YamlReader::readPose(const std::string& key, Pose& value) const {
     if (p.has("quat_wxyz")) {
       const YAML::Node n = p.lookup("quat_wxyz");
       if (!n.IsSequence() || n.size() != 4) p.fail("quat_wxyz", "must be a list of 4 numbers");
-      q = Eigen::Quaterniond(convert<double>(n[0], key), convert<double>(n[1], key), convert<double>(n[2], key),
-                             convert<double>(n[3], key));
+      const auto at = [&](int i) { return p.convert<double>(n[i], "quat_wxyz"); };  // errors name the list
+      q = Eigen::Quaterniond(at(0), at(1), at(2), at(3));
       if (!q.coeffs().allFinite() || q.norm() < 1e-9) p.fail("quat_wxyz", "must be a finite non-zero quaternion");
     }
     value = makePose(xyz, q);
