@@ -20,6 +20,7 @@ namespace depowder::eval {
 MovingResult runMoving(const EvalCell& cell_in, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const MovingOptions& o, const RunControl& control) {
   MovingResult result;
+  result.eta1 = cell_in.tracker.eta1;
   EvalCell cell = cell_in;
   cell.sim.physics.enabled = true;
   const int max_frames = static_cast<int>(std::lround(o.max_duration * cell.fps));
@@ -239,7 +240,7 @@ Json toJson(const MovingResult& result, const MovingOptions& o) {
   opt.set("max_offset_fraction", o.max_offset_fraction);
   opt.set("success_rot_deg", o.success_rot_deg);
   opt.set("success_trans_m", o.success_trans);
-  opt.set("eta1", 0.0);
+  opt.set("eta1", result.eta1);
   doc.set("options", opt);
   Json rows = Json::array();
   for (const MovingRow& r : result.rows) {

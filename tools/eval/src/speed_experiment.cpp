@@ -5,6 +5,9 @@
 // Every factor and method is tracked on the same frames, from the true initial pose.
 #include <cmath>
 #include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "depowder/eval/experiment.hpp"
 #include "depowder/tracker/part_tracker.hpp"
@@ -134,7 +137,21 @@ double maxTracked(const std::vector<int>& success, std::size_t m, const std::vec
 SpeedResult runSpeed(const EvalCell& cell, const std::vector<EvalPart>& parts,
                      const std::vector<tracker::Method>& methods, const SpeedOptions& o, const RunControl& control) {
   SpeedResult result;
+  result.eta1 = cell.tracker.eta1;
   const double base_rot = o.turntable_base_deg * M_PI / 180.0, travel_rot = o.turntable_travel_deg * M_PI / 180.0;
+  // A factor past the travel's frames would never track a frame: its "final error" would be the
+  // start pose's, 0, a success at a speed never tried. Increasing: a trial's figure is the last
+  // speed of the list still tracked.
+  const auto checkFactors = [](const std::vector<int>& factors, double frames, const std::string& which) {
+    for (std::size_t k = 0; k < factors.size(); ++k)
+      if (factors[k] < 1 || factors[k] > frames || (k > 0 && factors[k] <= factors[k - 1]))
+        throw std::invalid_argument("speed: " + which + " factors must increase from 1 up to the travel's " +
+                                    std::to_string(static_cast<long>(frames)) + " frames (factor " +
+                                    std::to_string(factors[k]) + ")");
+    if (factors.empty()) throw std::invalid_argument("speed: no " + which + " factors");
+  };
+  checkFactors(o.linear_factors, std::lround(o.linear_travel / o.linear_base * cell.fps), "linear");
+  checkFactors(o.turntable_factors, std::lround(travel_rot / base_rot * cell.fps), "turntable");
   const double frames_per_trial =
       std::lround(o.linear_travel / o.linear_base * cell.fps) + std::lround(travel_rot / base_rot * cell.fps);
   const double total = static_cast<double>(parts.size() * o.visibilities.size()) * o.trials * frames_per_trial;
@@ -223,7 +240,7 @@ Json toJson(const SpeedResult& result, const SpeedOptions& o) {
   opt.set("turntable_travel_deg", o.turntable_travel_deg);
   opt.set("success_rot_deg", o.success_rot_deg);
   opt.set("success_trans_m", o.success_trans);
-  opt.set("eta1", 0.0);
+  opt.set("eta1", result.eta1);
   opt.set("follow_crater", o.follow_crater);
   doc.set("options", opt);
   Json rows = Json::array();

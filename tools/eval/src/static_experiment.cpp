@@ -40,6 +40,7 @@ sim::NozzleScript orbitAround(const Eigen::AlignedBox3d& b, const StaticOptions&
 StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const StaticOptions& o, const RunControl& control) {
   StaticResult result;
+  result.eta1 = cell.tracker.eta1;
   const int frames = std::max(1, static_cast<int>(std::lround(o.duration * cell.fps)));
   const double total = static_cast<double>(parts.size() * o.visibilities.size()) * o.trials * frames;
   double done = 0;
@@ -177,7 +178,7 @@ Json toJson(const StaticResult& result, const StaticOptions& o) {
   opt.set("nozzle_above_top_m", o.nozzle_above);
   opt.set("nozzle_period_s", o.nozzle_period);
   opt.set("nozzle_tilt_deg", o.nozzle_tilt_deg);
-  opt.set("eta1", 0.0);
+  opt.set("eta1", result.eta1);
   doc.set("options", opt);
   Json rows = Json::array();
   for (const StaticRow& r : result.rows) {

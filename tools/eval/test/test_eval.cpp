@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -340,6 +341,25 @@ TEST(EvalSpeed, ShortRunShapeAndBounds) {
   EXPECT_GE(cu->at("max_rot_speed_deg_s").number(), 12.0);
 }
 
+// A factor the travel has no frames for (here 61 of 60) would report a success at a speed never
+// tracked; a list out of order would cut the highest speed short. Both are refused up front.
+TEST(EvalSpeed, FactorsPastTheRunsFramesAreRefused) {
+  const EvalCell cell = testCell();
+  SpeedOptions o;
+  o.visibilities = {0.8};
+  o.trials = 1;
+  o.linear_travel = 0.02;  // 60 frames
+  o.turntable_travel_deg = 12;
+  for (const std::vector<int>& bad : std::vector<std::vector<int>>{{2, 61}, {4, 2}, {0, 2}, {}}) {
+    o.linear_factors = bad;
+    o.turntable_factors = {2, 4};
+    EXPECT_THROW(runSpeed(cell, {defaultPart("cube")}, {tracker::Method::kCu}, o), std::invalid_argument);
+    o.linear_factors = {2, 4};
+    o.turntable_factors = bad;
+    EXPECT_THROW(runSpeed(cell, {defaultPart("cube")}, {tracker::Method::kCu}, o), std::invalid_argument);
+  }
+}
+
 TEST(EvalReport, TablesCarryOursAndThePapers) {
   Json s = Json::object();
   s.set("experiment", "static");
@@ -379,6 +399,45 @@ TEST(EvalReport, TablesCarryOursAndThePapers) {
   EXPECT_DOUBLE_EQ(paperRotErrDeg("cu", "overall", 0.2), 19.0);
   EXPECT_DOUBLE_EQ(paperTransErrCm("vanilla", "pipe", 1.0), 0.38);
   EXPECT_TRUE(std::isnan(paperRotErrDeg("cu", "cube", 0.5)));
+}
+
+// The paper's "overall" is the mean of its five parts: a run of two parts gets its own overall row
+// without the paper's beside it (19.0 deg for CU-ICP at 20 %), each part row still with its own, and
+// a run with eta1 set says so instead of "ICP runs at every visibility".
+TEST(EvalReport, ASubsetsOverallIsNotComparedWithThePapers) {
+  Json s = Json::object();
+  s.set("experiment", "static");
+  s.set("interrupted", false);
+  Json opt = Json::object();
+  for (const auto& [k, v] : std::vector<std::pair<const char*, double>>{{"trials", 1},
+                                                                        {"duration_s", 1},
+                                                                        {"max_offset_m", 0.02},
+                                                                        {"init_trans_max_m", 0.005},
+                                                                        {"init_rot_max_deg", 3},
+                                                                        {"eta1", 0.5}})
+    opt.set(k, v);
+  opt.set("nozzle", false);
+  s.set("options", opt);
+  Json rows = Json::array();
+  for (const char* part : {"cube", "cup"}) {
+    Json r = Json::object();
+    r.set("part", part);
+    r.set("method", "cu");
+    r.set("visibility", 0.2);
+    r.set("rot_err_deg", std::string(part) == "cube" ? 1.0 : 3.0);
+    r.set("trans_err_cm", 0.5);
+    for (const char* k : {"tilt_err_deg", "tracked_fraction", "lost_fraction", "template_updates", "template_size",
+                          "track_ms", "init_rot_err_deg", "init_trans_err_cm"})
+      r.set(k, 1.0);
+    rows.push(r);
+  }
+  s.set("rows", rows);
+  const std::string md = reportMarkdown({s, Json(), Json(), "not run", "depowder-eval report", ""}, {});
+  EXPECT_NE(md.find("| cube | 1.00 (16.8) | 0.50 (1.05) |"), std::string::npos) << md;  // the paper's cube
+  EXPECT_NE(md.find("| overall | 2.00 | 0.50 |"), std::string::npos) << md;             // ours alone
+  EXPECT_EQ(md.find("(19.0)"), std::string::npos) << md;
+  EXPECT_NE(md.find("eta1 = 0.50 (set for this run)"), std::string::npos) << md;
+  EXPECT_EQ(md.find("ICP runs at every visibility"), std::string::npos) << md;
 }
 
 // The report's "Reproduce with" line keeps what decides the figures, not where a run wrote them.
@@ -557,10 +616,11 @@ TEST(EvalCli, WritesJsonAndRejectsBadFlags) {
   const std::string bin = std::string(DEPOWDER_BIN_DIR) + "/depowder-eval";
   const std::string json = ::testing::TempDir() + "eval_cli.json";
   const std::string cmd = bin + " static --part cube --visibilities 1.0 --trials 1 --duration 0.2 --methods cu " +
-                          "--seed 2 --quiet --json " + json + " > /dev/null";
+                          "--seed 2 --set eta1=0.5 --quiet --json " + json + " > /dev/null";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const Json doc = readJsonFile(json);
   EXPECT_EQ(doc.at("experiment").string(), "static");
+  EXPECT_EQ(doc.at("options").at("eta1").number(), 0.5);  // the eta1 the run used, not the default 0
   ASSERT_EQ(doc.at("rows").size(), 1u);
   EXPECT_EQ(doc.at("rows").at(0).at("method").string(), "cu");
   EXPECT_LT(doc.at("rows").at(0).at("trans_err_cm").number(), 0.6);

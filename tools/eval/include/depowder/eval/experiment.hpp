@@ -189,6 +189,7 @@ struct MovingRow {
 struct MovingResult {
   std::vector<MovingRow> rows;
   bool interrupted = false;
+  double eta1 = 0;  ///< the trackers' Eq. 1 eta1: the cell's tracker section's (0 unless --set changed it)
 };
 
 /// The tracker config of an experiment: cell.tracker (baseTrackerConfig() unless changed), the
@@ -198,6 +199,7 @@ tracker::TrackerConfig evalTrackerConfig(tracker::Method method, const EvalCell&
 struct StaticResult {
   std::vector<StaticRow> rows;
   bool interrupted = false;
+  double eta1 = 0;  ///< the trackers' Eq. 1 eta1: the cell's tracker section's (0 unless --set changed it)
 };
 StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
                        const std::vector<tracker::Method>& methods, const StaticOptions& options,
@@ -206,6 +208,7 @@ StaticResult runStatic(const EvalCell& cell, const std::vector<EvalPart>& parts,
 struct SpeedResult {
   std::vector<SpeedRow> rows;
   bool interrupted = false;
+  double eta1 = 0;  ///< the trackers' Eq. 1 eta1: the cell's tracker section's (0 unless --set changed it)
 };
 SpeedResult runSpeed(const EvalCell& cell, const std::vector<EvalPart>& parts,
                      const std::vector<tracker::Method>& methods, const SpeedOptions& options,
