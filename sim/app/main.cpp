@@ -132,11 +132,8 @@ int main(int argc, char** argv) {
     if (seed >= 0) setup.seed = static_cast<std::uint32_t>(seed);
     std::unique_ptr<World> world = makeWorld(setup);
     if (!arm_choice.empty()) setup.arm = arm_choice;
-    for (const SimSetup::Fault& f : setup.faults)
-      if (f.drop_controller && setup.arm != "emulator")
-        throw std::runtime_error("the fault at t = " + std::to_string(f.at) +
-                                 " s drops the controller's connections, which needs the emulator: not with --arm " +
-                                 setup.arm);
+    if (const std::string why = faultsProblem(setup); !why.empty())
+      throw std::runtime_error("--arm " + setup.arm + ": " + why);
     NozzleScript script(setup.script, setup.script_loop);
     ArmSource* arm = &script;
     std::unique_ptr<PushScript> push = makePushScript(setup, *world);  // sim.push: the nozzle pushes a part

@@ -262,8 +262,7 @@ void readSimSection(const YamlReader& s, SimSetup& out) {
     item.readPose("pose", cam->T_cell_camera);
     item.finish();
   }
-  for (const SimSetup::Fault& f : out.faults)
-    if (f.drop_controller && out.arm != "emulator") s.fail("faults", "drop_controller needs arm: emulator");
+  if (const std::string why = faultsProblem(out); !why.empty()) s.fail("faults", why);
 
   const YamlReader sr = s.child("script");
   sr.read("loop", out.script_loop);
@@ -316,6 +315,13 @@ SimSetup cellSetup(const node::CellConfig& cell) {
 }
 
 }  // namespace
+
+std::string faultsProblem(const SimSetup& setup) {
+  for (const SimSetup::Fault& f : setup.faults)
+    if (f.drop_controller && setup.arm != "emulator")
+      return "drop_controller (the fault at t = " + std::to_string(f.at) + " s) needs the emulator (arm: emulator)";
+  return "";
+}
 
 SimSetup simSetupOf(const node::CellConfig& cell) {
   SimSetup out = cellSetup(cell);

@@ -59,6 +59,10 @@ struct SimSetup {
   std::vector<Fault> faults;
 };
 
+/// Why the setup's faults cannot run with its arm, "" if they can: a controller drop needs the
+/// emulator. Checked when the sim section is read and again when --arm overrides its choice.
+std::string faultsProblem(const SimSetup& setup);
+
 /// The simulated camera of a cell camera: the same intrinsics, range, rate and noise.
 CameraModel cameraModelOf(const node::CameraConfig& c);
 

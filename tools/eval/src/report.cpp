@@ -171,6 +171,7 @@ std::string staticSection(const Json& doc) {
   const std::vector<double> vis = visibilitiesOf(doc);
   std::vector<std::string> row_parts = parts;
   if (parts.size() > 1) row_parts.push_back("overall");
+  const bool papers_overall = thePapersParts(parts);
   const Json& opt = doc.at("options");
 
   md << "## Table I: pose tracking error of a static part at each surface visibility\n\n";
@@ -208,9 +209,9 @@ std::string staticSection(const Json& doc) {
           const double ours = value(rows, parts, p, m, v, field);
           double best = INFINITY;
           for (const std::string& other : methods) best = std::min(best, value(rows, parts, p, other, v, field));
-          const double paper = p == "overall" && !thePapersParts(parts) ? std::nan("")
-                               : rot                                    ? paperRotErrDeg(m, p, v)
-                                                                        : paperTransErrCm(m, p, v);
+          const double paper = p == "overall" && !papers_overall ? std::nan("")
+                               : rot                             ? paperRotErrDeg(m, p, v)
+                                                                 : paperTransErrCm(m, p, v);
           const std::string o = fmt(ours, -1);
           md << " " << (methods.size() > 1 && ours <= best ? "**" + o + "**" : o);
           if (std::isfinite(paper)) md << " (" << fmt(paper, -1) << ")";

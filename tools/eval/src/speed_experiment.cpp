@@ -150,10 +150,11 @@ SpeedResult runSpeed(const EvalCell& cell, const std::vector<EvalPart>& parts,
                                     std::to_string(factors[k]) + ")");
     if (factors.empty()) throw std::invalid_argument("speed: no " + which + " factors");
   };
-  checkFactors(o.linear_factors, std::lround(o.linear_travel / o.linear_base * cell.fps), "linear");
-  checkFactors(o.turntable_factors, std::lround(travel_rot / base_rot * cell.fps), "turntable");
-  const double frames_per_trial =
-      std::lround(o.linear_travel / o.linear_base * cell.fps) + std::lround(travel_rot / base_rot * cell.fps);
+  const double linear_frames = std::lround(o.linear_travel / o.linear_base * cell.fps);
+  const double turntable_frames = std::lround(travel_rot / base_rot * cell.fps);
+  checkFactors(o.linear_factors, linear_frames, "linear");
+  checkFactors(o.turntable_factors, turntable_frames, "turntable");
+  const double frames_per_trial = linear_frames + turntable_frames;
   const double total = static_cast<double>(parts.size() * o.visibilities.size()) * o.trials * frames_per_trial;
   double done = 0;
   for (const EvalPart& part : parts) {
