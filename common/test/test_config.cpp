@@ -52,9 +52,10 @@ TEST(Config, BadKeysAndValuesNameFileKeyAndRange) {
   expectError("parts:\n  - {name: p, mesh: a.stl, mesh_scale: .nan}\n", {"'parts[0].mesh_scale'", "out of range"});
   expectError("cameras:\n  - {name: A, width: 8}\n", {"'cameras[0].width'", "[16, 4096]"});
   expectError("cameras:\n  - {width: 320}\n", {"'cameras[0].name'", "required"});
-  expectError("cameras:\n  - {name: A, colour: red}\n", {"unknown key 'colour'", "cameras[0]"});
+  expectError("cameras:\n  - {name: A, pose: {xyz: [0, 0, 1]}, colour: red}\n", {"unknown key 'colour'", "cameras[0]"});
   expectError("cameras:\n  - {name: A, min_range: 2, max_range: 1}\n", {"max_range", "greater than min_range"});
-  expectError("cameras:\n  - {name: A}\n  - {name: A}\n", {"'cameras[1].name'", "used twice"});
+  expectError("cameras:\n  - {name: A, pose: {xyz: [0, 0, 1]}}\n  - {name: A, pose: {xyz: [0, 0, 1]}}\n",
+              {"'cameras[1].name'", "used twice"});
   // A name is part of channels, heartbeat figures and the tracker's state file lines.
   expectError("parts:\n  - {name: 'cube 1', mesh: a.stl}\n", {"'parts[0].name'", "'cube 1' must be 1 to 64 letters"});
   expectError("cameras:\n  - {name: ''}\n", {"'cameras[0].name'", "must be 1 to 64"});
@@ -68,6 +69,9 @@ TEST(Config, BadKeysAndValuesNameFileKeyAndRange) {
               {"'parts[0].initial_pose.quat_wxyz'", "a number"});
   // look_at alone once put the camera at the cell's origin, looking from there.
   expectError("cameras:\n  - {name: A, look_at: [0, 0, 0.05]}\n", {"'cameras[0].position'", "required with look_at"});
+  // Neither pose nor look_at once gave the identity: a camera at the origin looking up.
+  expectError("cameras:\n  - {name: A}\n", {"'cameras[0].pose'", "is required, or position and look_at"});
+  expectError("cameras:\n  - {name: A, position: [0, 0, 1]}\n", {"'cameras[0].pose'", "is required"});
   expectError("parts: {name: p}\n", {"'parts'", "must be a list"});
   expectError("box: [1, 2\n", {"bad.yaml", "not valid YAML"});
   try {

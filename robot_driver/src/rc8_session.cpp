@@ -139,19 +139,20 @@ SessionResult Rc8Session::clearError() {
 }
 
 SessionResult Rc8Session::enable() {
-  CallResult r = act_.robotExecute(robot_, "Motor", Variant::i4(1));
-  if (!r.ok()) return SessionResult::from(r);
-  motor_ = true;
   // The slvMove formats, set as DENSO's driver sets them before TakeArm (the controller keeps the
   // last ones set): the command is the joint array alone (slvSendFormat 0), the reply the joint
   // array alone (slvRecvFormat 2; another format would put a position where jointsFrom reads joints).
-  r = act_.robotExecute(robot_, "slvSendFormat", Variant::i4(0));
+  CallResult r = act_.robotExecute(robot_, "slvSendFormat", Variant::i4(0));
   if (!r.ok()) return SessionResult::from(r);
   r = act_.robotExecute(robot_, "slvRecvFormat", Variant::i4(2));
   if (!r.ok()) return SessionResult::from(r);
+  // The arm first, then its motor, as DENSO's b-CAP samples do.
   r = act_.robotExecute(robot_, "TakeArm", Variant::i4Array({0, 1}));
   if (!r.ok()) return SessionResult::from(r);
   arm_taken_ = true;
+  r = act_.robotExecute(robot_, "Motor", Variant::i4(1));
+  if (!r.ok()) return SessionResult::from(r);
+  motor_ = true;
   r = act_.robotExecute(robot_, "slvChangeMode", Variant::i4(cfg_.slave_mode));
   if (!r.ok()) return SessionResult::from(r);
   slave_ = true;
@@ -160,7 +161,9 @@ SessionResult Rc8Session::enable() {
 }
 
 SessionResult Rc8Session::move(const Joints& target, Joints* measured) {
-  std::vector<double> deg(8, 0.0);
+  // As DENSO's own driver sends it (denso_robot_core, CreateSendParameter): the 8 joints (deg; J7
+  // and J8 unused on the VS-6577) and an option word of 0.
+  std::vector<double> deg(9, 0.0);
   for (int i = 0; i < 6; ++i) deg[i] = target[i] * kDeg;
   const CallResult r = act_.robotExecute(robot_, "slvMove", Variant::r8Array(deg));
   if (!r.ok()) {

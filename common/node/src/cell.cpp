@@ -49,6 +49,9 @@ CameraConfig readCamera(const YamlReader& r) {
     if ((target - position).norm() < 1e-6) r.fail("look_at", "must differ from position");
     c.T_cell_camera = lookAt(position, target);
   } else {
+    // No default: an identity pose puts the camera at the cell's origin looking up, and every cloud
+    // it gives would land in the wrong place without a word.
+    if (!r.has("pose")) r.fail("pose", "is required, or position and look_at (where the camera is in the cell)");
     r.readPose("pose", c.T_cell_camera);
   }
   const YamlReader n = r.child("noise");

@@ -514,6 +514,9 @@ Packet BcapEmulator::robotExecute(const Packet& req, int connection, const Parti
       return reply(req, hr::S_OK, {Variant::empty()});
     }
     if (error_pending_) return error(req, hr::E_CONTROLLER_ERROR, "Motor 1");
+    // Counted, not refused: DENSO's samples and drivers take the arm before Motor 1, but whether
+    // an RC8 refuses the other order is not known here.
+    if (arm_owner_ != connection) ++stats_.motor_on_untaken;
     if (!motor_on_) {
       // Servo power-up takes a while: "still executing" replies every WDT until it is done.
       const auto wdt = wdt_s_.find(connection);
@@ -582,9 +585,15 @@ Packet BcapEmulator::slvMove(const Packet& req, int connection, const Variant& p
     return error(req, hr::E_SLAVE_LATE, why);
   }
 
+  // 6..8 joint angles, or DENSO's own driver's form: the 8 joints and an option word of 0
+  // (denso_robot_core's CreateSendParameter, "Number of joints + option").
   const auto values = (param.array && param.isReal()) ? param.asReals() : std::nullopt;
-  if (!values || values->size() < 6 || values->size() > 8)
-    return error(req, hr::E_INVALIDARG, "slvMove expects an R8/R4 array of 6..8 joint angles (deg)");
+  if (!values || values->size() < 6 || values->size() > 9)
+    return error(req, hr::E_INVALIDARG,
+                 "slvMove expects an R8/R4 array of 6..8 joint angles (deg), or 8 and an option");
+  if (values->size() == 9 && (*values)[8] != 0.0)
+    return error(req, hr::E_INVALIDARG,
+                 "slvMove option word " + std::to_string((*values)[8]) + " is not supported (only 0)");
   robot::Joints target;
   for (std::size_t i = 0; i < values->size(); ++i) {
     if (!std::isfinite((*values)[i])) return error(req, hr::E_INVALIDARG, "slvMove target is not finite");

@@ -56,9 +56,9 @@ Session openSession(Client& c, int mode = 0x202) {
   s.robot = r.handle().value_or(0);
   s.vacuum = c.controllerGetVariable(s.controller, "IO24").handle().value_or(0);
   s.air = c.controllerGetVariable(s.controller, "IO25").handle().value_or(0);
-  r = c.robotExecute(s.robot, "Motor", Variant::i4(1));
-  EXPECT_TRUE(r.ok()) << r.error;
   r = c.robotExecute(s.robot, "TakeArm", Variant::i4Array({0, 1}));
+  EXPECT_TRUE(r.ok()) << r.error;
+  r = c.robotExecute(s.robot, "Motor", Variant::i4(1));
   EXPECT_TRUE(r.ok()) << r.error;
   r = c.robotExecute(s.robot, "slvChangeMode", Variant::i4(mode));
   EXPECT_TRUE(r.ok()) << r.error;
@@ -192,6 +192,7 @@ TEST(BcapEmulator, ClientBytesMatchHandBuiltPackets) {
   ASSERT_TRUE(c.robotExecute(2, "Motor", Variant::i4(1)).ok());
   EXPECT_GT(c.executingReplies(), 0);  // Motor on answered "still executing" first
   ASSERT_TRUE(c.robotExecute(2, "TakeArm", Variant::i4Array({0, 1})).ok());
+  EXPECT_EQ(emu.stats().motor_on_untaken, 1);  // Motor before TakeArm: counted, not refused
   ASSERT_TRUE(c.robotExecute(2, "slvChangeMode", Variant::i4(0x202)).ok());
   const std::vector<double> deg{emu.joints().q[0] * kDeg,
                                 emu.joints().q[1] * kDeg,
@@ -495,6 +496,26 @@ TEST_F(SlaveSession, RefusesTargetsOutsideLimitsAndTooFast) {
   EXPECT_EQ(r.hresult, hr::E_SPEED_LIMIT);
   EXPECT_EQ(emu.joints().q, start);
   EXPECT_TRUE(emu.halted());
+}
+
+TEST_F(SlaveSession, TakesDensosOwnSlvMoveForm) {
+  // DENSO's own driver sends the 8 joints and an option word of 0 (9 elements); this emulator
+  // once refused it. Another option word is not known here and is refused by name.
+  const robot::Joints start = emu.joints().q;
+  std::vector<double> deg(9, 0.0);
+  for (int i = 0; i < 6; ++i) deg[i] = start[i] * kDeg;
+  deg[0] += 0.01;
+  CallResult r = c.robotExecute(s.robot, "slvMove", Variant::r8Array(deg));
+  ASSERT_TRUE(r.ok()) << r.error;
+  ASSERT_FALSE(r.values.empty());
+  deg[8] = 1;
+  r = c.robotExecute(s.robot, "slvMove", Variant::r8Array(deg));
+  EXPECT_EQ(r.hresult, hr::E_INVALIDARG);
+  EXPECT_NE(emu.stats().last_error.find("option word 1"), std::string::npos) << emu.stats().last_error;
+  deg[8] = 0;
+  deg.push_back(0);
+  EXPECT_EQ(c.robotExecute(s.robot, "slvMove", Variant::r8Array(deg)).hresult, hr::E_INVALIDARG);
+  EXPECT_NEAR(emu.joints().q[0], start[0] + 0.01 / kDeg, 1e-9);
 }
 
 TEST_F(SlaveSession, ArmOwnershipHaltAndDisconnect) {

@@ -150,6 +150,8 @@ TEST(DriverEmulator, FollowsAPlanToItsEnd) {
   // the joints alone (0), the reply the joints alone (2).
   EXPECT_EQ(rig.emu().stats().send_format, 0);
   EXPECT_EQ(rig.emu().stats().recv_format, 2);
+  // The arm taken before its motor is switched on, as DENSO's samples do (it was the other way).
+  EXPECT_EQ(rig.emu().stats().motor_on_untaken, 0);
   const auto res = rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.1, -0.05, 0.15}}, 0.2));
   ASSERT_TRUE(res.accepted) << res.reason;
   ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));

@@ -1,5 +1,5 @@
 // The b-CAP session with an RC8 (REFERENCE.md): ServiceStart, Controller_Connect,
-// Controller_GetRobot, tool I/O variables, Motor on, TakeArm, slave mode, slvMove every cycle,
+// Controller_GetRobot, tool I/O variables, TakeArm, Motor on, slave mode, slvMove every cycle,
 // Robot_Halt, and the orderly shutdown. Two connections, as DENSO's own driver does: "act"
 // carries the slave loop; "watch" carries Robot_Halt so an emergency stop never waits behind
 // a slvMove exchange.
@@ -54,7 +54,7 @@ class Rc8Session {
   /// ClearError (a pending controller error, e.g. after a late slave command), after leaving slave
   /// mode and giving the arm back if it was taken.
   SessionResult clearError();
-  /// Motor on; slave formats (send joints only, receive joints only); TakeArm; slave mode.
+  /// Slave formats (send joints only, receive joints only); TakeArm; Motor on; slave mode.
   SessionResult enable();
   /// One slave cycle: sends the target (rad), returns the controller's position (rad).
   SessionResult move(const Joints& target, Joints* measured);

@@ -7,7 +7,8 @@
 // "CurJnt", "ExtSpeed", "slvSendFormat"/"slvRecvFormat" defaults only), Robot_Halt,
 // Robot_Release, Variable_GetValue/PutValue/Release. Handles are global; the arm belongs to
 // the connection that took it and is released (stopped) when that connection closes.
-// Slave mode: joint targets (mode 0x?02) in degrees, 6..8 elements, one per 8 ms cycle; in
+// Slave mode: joint targets (mode 0x?02) in degrees, 6..8 elements (or 8 and an option word 0, as
+// DENSO's own driver sends), one per 8 ms cycle; in
 // sync mode (0x200) the reply waits for the next cycle and a command later than 16 ms after
 // the previous one is an error that stops the arm. Errors that stop the arm switch the motor
 // off and stay pending until Controller_Execute("ClearError").
@@ -68,19 +69,20 @@ struct EmulatorToolState {
 };
 
 struct EmulatorStats {
-  std::int64_t connections = 0;    ///< accepted
-  std::int64_t packets = 0;        ///< requests decoded
-  std::int64_t malformed = 0;      ///< requests that did not decode (error reply or closed)
-  std::int64_t error_replies = 0;  ///< failure HRESULTs sent
-  std::int64_t late_errors = 0;    ///< slvMove later than late_limit_s
-  std::int64_t limit_errors = 0;   ///< targets outside the joint limits
-  std::int64_t speed_errors = 0;   ///< targets too far for one cycle
-  std::int64_t halts = 0;          ///< Robot_Halt calls
-  std::int64_t abrupt_exits = 0;   ///< slave mode left with the arm moving (stopped at once, not braked)
-  int send_format = -1;            ///< the last slvSendFormat set (-1: never; the controller keeps it)
-  int recv_format = -1;            ///< the last slvRecvFormat set (-1: never)
-  std::string last_error;          ///< description of the last error reply
-  std::string last_refusal;        ///< ...and of the last late / limit / speed error (the arm's refusals)
+  std::int64_t connections = 0;       ///< accepted
+  std::int64_t packets = 0;           ///< requests decoded
+  std::int64_t malformed = 0;         ///< requests that did not decode (error reply or closed)
+  std::int64_t error_replies = 0;     ///< failure HRESULTs sent
+  std::int64_t late_errors = 0;       ///< slvMove later than late_limit_s
+  std::int64_t limit_errors = 0;      ///< targets outside the joint limits
+  std::int64_t speed_errors = 0;      ///< targets too far for one cycle
+  std::int64_t halts = 0;             ///< Robot_Halt calls
+  std::int64_t abrupt_exits = 0;      ///< slave mode left with the arm moving (stopped at once, not braked)
+  std::int64_t motor_on_untaken = 0;  ///< Motor 1 from a client without the arm (DENSO's samples take it first)
+  int send_format = -1;               ///< the last slvSendFormat set (-1: never; the controller keeps it)
+  int recv_format = -1;               ///< the last slvRecvFormat set (-1: never)
+  std::string last_error;             ///< description of the last error reply
+  std::string last_refusal;           ///< ...and of the last late / limit / speed error (the arm's refusals)
 };
 
 class BcapEmulator {
