@@ -177,6 +177,11 @@ InputResult PlannerNode::onProgress(const progress_t& msg, std::int64_t arrival)
 }
 
 InputResult PlannerNode::onRobot(const robot_state_t& msg) {
+  // A driver without a controller has not measured the arm: before its first connection its joints
+  // are all 0 (an arm upright, out of the workspace), and a cycle was once planned from there
+  // ("hold: the arm is in collision"). Left out, as the camera proxy's self-filter leaves it out;
+  // once connected, the driver reads where the arm is before it publishes another mode.
+  if (msg.mode == robot_state_t::MODE_DISCONNECTED) return {};
   RobotInput in;
   in.utime = msg.utime;
   for (int i = 0; i < 6; ++i) in.q[i] = msg.q[i];

@@ -121,6 +121,31 @@ TEST_F(NodeTest, BadMessagesAreRejectedWithAReason) {
   EXPECT_TRUE(node.stats().holding);
 }
 
+TEST_F(NodeTest, ADisconnectedDriversJointsAreNotTheArms) {
+  // Before its first connection the driver publishes ROBOT_STATE with joints all 0; the planner
+  // once planned from them and held ("the arm is in collision (workspace)").
+  robot_state_t robot{};
+  robot.utime = utime;
+  robot.mode = robot_state_t::MODE_DISCONNECTED;
+  robot.plan_id = -1;
+  ASSERT_TRUE(node.onRobot(robot).ok());
+  const Pose T = makePoseRpy({0.02, 0.01, 0.03}, 0, 0, 0.3);
+  ASSERT_TRUE(node.onPose(test::cubePose(utime, T), utime).ok());
+  ASSERT_TRUE(node.onProgress(test::cubeProgress(utime, T, 0.04), utime).ok());
+  const auto msg = node.step();
+  ASSERT_TRUE(msg);
+  EXPECT_GT(msg->num_waypoints, 20) << msg->reason;
+  // The plan a planner that never heard ROBOT_STATE makes (from the home joints).
+  PlannerNode unheard{cell, options};
+  ASSERT_TRUE(unheard.onPose(test::cubePose(utime, T), utime).ok());
+  ASSERT_TRUE(unheard.onProgress(test::cubeProgress(utime, T, 0.04), utime).ok());
+  const auto expected = unheard.step();
+  ASSERT_TRUE(expected);
+  ASSERT_EQ(msg->num_waypoints, expected->num_waypoints);
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(msg->waypoints[0].q[i], expected->waypoints[0].q[i]);
+  EXPECT_EQ(node.stats().rejected, 0);
+}
+
 TEST_F(NodeTest, NoPoseProgressWithNaNHeightsIsAccepted) {
   // The estimator sends NaN heights without a contour; that is a state, not a bad message.
   progress_t m = test::cubeProgress(utime, Pose::Identity(), 0.04);
