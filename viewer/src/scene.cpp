@@ -135,7 +135,8 @@ void SceneModel::onSimTruth(const sim_truth_t& msg) {
     p.eta_true = t.eta;
   }
   scene_.has_truth = true;
-  if (scene_.robot_mode < 0) {  // no driver heard: show the simulated nozzle
+  // No driver heard, or one without a controller (its nozzle is not measured): the simulated one.
+  if (scene_.robot_mode < 0 || scene_.robot_mode == robot_state_t::MODE_DISCONNECTED) {
     if (const std::optional<Pose> N = node::fromMsg(msg.T_cell_nozzle, &why)) {
       scene_.has_nozzle = true;
       scene_.T_cell_nozzle = *N;
@@ -165,6 +166,13 @@ void SceneModel::onNozzlePlan(const nozzle_plan_t& msg) {
 }
 
 void SceneModel::onRobotState(const robot_state_t& msg) {
+  if (msg.mode == robot_state_t::MODE_DISCONNECTED) {
+    // Its nozzle is not measured (before the first connection: the cell's origin); the mode is
+    // shown, the nozzle stays where it was last seen.
+    if (scene_.robot_mode != msg.mode) ++scene_.versions.text;
+    scene_.robot_mode = msg.mode;
+    return;
+  }
   std::string why;
   const std::optional<Pose> N = node::fromMsg(msg.T_cell_nozzle, &why);
   if (!N) return reject("ROBOT_STATE: " + why);

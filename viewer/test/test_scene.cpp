@@ -145,6 +145,13 @@ TEST(SceneModel, ProgressPlanRobotAndTruth) {
   EXPECT_TRUE(s.has_nozzle);
   EXPECT_NEAR(s.T_cell_nozzle.translation().z(), 0.3, 1e-12);
   robot_state_t rs{};
+  // A driver not yet connected has not measured the nozzle (its pose was the cell's origin): the
+  // simulated one stays.
+  rs.mode = robot_state_t::MODE_DISCONNECTED;
+  rs.T_cell_nozzle = node::toMsg(Pose::Identity());
+  model.onRobotState(rs);
+  model.onSimTruth(truth);
+  EXPECT_NEAR(model.scene().T_cell_nozzle.translation().z(), 0.3, 1e-12);
   rs.mode = robot_state_t::MODE_FOLLOWING;
   rs.T_cell_nozzle = node::toMsg(makePoseRpy({0, 0, 0.25}, 0, 0, 0));
   model.onRobotState(rs);
