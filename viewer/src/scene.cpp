@@ -166,21 +166,18 @@ void SceneModel::onNozzlePlan(const nozzle_plan_t& msg) {
 }
 
 void SceneModel::onRobotState(const robot_state_t& msg) {
-  if (msg.mode == robot_state_t::MODE_DISCONNECTED) {
-    // Its nozzle is not measured (before the first connection: the cell's origin); the mode is
-    // shown, the nozzle stays where it was last seen.
-    if (scene_.robot_mode != msg.mode) ++scene_.versions.text;
-    scene_.robot_mode = msg.mode;
-    return;
-  }
+  // A driver without a controller has not measured the nozzle (before the first connection: the
+  // cell's origin): its mode is shown, the nozzle stays where it was last seen.
+  const bool measured = msg.mode != robot_state_t::MODE_DISCONNECTED;
   std::string why;
-  const std::optional<Pose> N = node::fromMsg(msg.T_cell_nozzle, &why);
-  if (!N) return reject("ROBOT_STATE: " + why);
+  const std::optional<Pose> N = measured ? node::fromMsg(msg.T_cell_nozzle, &why) : std::nullopt;
+  if (measured && !N) return reject("ROBOT_STATE: " + why);
+  if (scene_.robot_mode != msg.mode) ++scene_.versions.text;
+  scene_.robot_mode = msg.mode;
+  if (!measured) return;
   scene_.has_nozzle = true;
   scene_.T_cell_nozzle = *N;
   scene_.tool = msg.tool;
-  if (scene_.robot_mode != msg.mode) ++scene_.versions.text;
-  scene_.robot_mode = msg.mode;
   ++scene_.versions.nozzle;
 }
 
