@@ -193,8 +193,10 @@ TEST(LcmTypes, ProgressPlanStateTruthHeartbeatEstop) {
 
   robot_state_t rs{};
   rs.mode = robot_state_t::MODE_FOLLOWING;
+  rs.measured = true;
   rs.T_cell_nozzle = somePose();
   EXPECT_EQ(roundTrip(rs).mode, +robot_state_t::MODE_FOLLOWING);
+  EXPECT_TRUE(roundTrip(rs).measured);
   expectTruncationsRejected(rs);
 
   sim_truth_t t{};

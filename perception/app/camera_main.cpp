@@ -121,7 +121,7 @@ class CameraNode {
     });
     // The self-filter's nozzle poses: the driver's forward kinematics of the measured joints.
     bus_.subscribe<robot_state_t>(options_.robot_state, [this](const robot_state_t& msg, const std::string&) {
-      if (msg.mode == robot_state_t::MODE_DISCONNECTED) return;
+      if (!msg.measured) return;  // the driver has not read the arm over its current connection
       if (const std::optional<Pose> T = node::fromMsg(msg.T_cell_nozzle)) {
         proxy_.addNozzlePose(msg.utime, *T);
         robot_heard_ = true;

@@ -177,11 +177,12 @@ InputResult PlannerNode::onProgress(const progress_t& msg, std::int64_t arrival)
 }
 
 InputResult PlannerNode::onRobot(const robot_state_t& msg) {
-  // A driver without a controller has not measured the arm: before its first connection its joints
-  // are all 0 (an arm upright, out of the workspace), and a cycle was once planned from there
-  // ("hold: the arm is in collision"). Left out, as the camera proxy's self-filter leaves it out;
-  // once connected, the driver reads where the arm is before it publishes another mode.
-  if (msg.mode == robot_state_t::MODE_DISCONNECTED) return {};
+  // A driver that has not read the arm over its current connection does not know where it is:
+  // before the first read its joints are all 0 (an arm upright, out of the workspace), and a cycle
+  // was once planned from there ("hold: the arm is in collision"); a controller refusing the
+  // connection (FAULT) or an ESTOP before it are no different. Left out, as the camera proxy's
+  // self-filter leaves it out.
+  if (!msg.measured) return {};
   RobotInput in;
   in.utime = msg.utime;
   for (int i = 0; i < 6; ++i) in.q[i] = msg.q[i];

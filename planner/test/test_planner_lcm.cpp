@@ -184,6 +184,7 @@ TEST(PlannerProcessAnnounce, FirstRobotStateAfterASilenceGetsAHeartbeat) {
   robot_state_t robot{};
   robot.utime = 1000;
   robot.mode = robot_state_t::MODE_IDLE;
+  robot.measured = true;
   bus.publish("ROBOT_STATE", robot);
   EXPECT_TRUE(bus.spinUntil([&] { return heartbeats > started; }, 2)) << "no heartbeat after the first ROBOT_STATE";
   const int announced = heartbeats;

@@ -110,6 +110,7 @@ TEST_F(NodeTest, BadMessagesAreRejectedWithAReason) {
   mismatch.num_contour = 3;
   EXPECT_EQ(node.onProgress(mismatch, utime).status, InputStatus::kInvalidContour);
   robot_state_t robot{};
+  robot.measured = true;
   robot.q[2] = std::nan("");
   EXPECT_EQ(node.onRobot(robot).status, InputStatus::kInvalidValue);
   EXPECT_EQ(node.stats().rejected, 5);
@@ -121,13 +122,16 @@ TEST_F(NodeTest, BadMessagesAreRejectedWithAReason) {
   EXPECT_TRUE(node.stats().holding);
 }
 
-TEST_F(NodeTest, ADisconnectedDriversJointsAreNotTheArms) {
-  // Before its first connection the driver publishes ROBOT_STATE with joints all 0; the planner
-  // once planned from them and held ("the arm is in collision (workspace)").
+TEST_F(NodeTest, AnUnmeasuredDriversJointsAreNotTheArms) {
+  // Before its first read of the arm the driver publishes ROBOT_STATE with joints all 0, whether
+  // it has no connection (DISCONNECTED) or the controller refused it (FAULT); the planner once
+  // planned from them and held ("the arm is in collision (workspace)").
   robot_state_t robot{};
   robot.utime = utime;
   robot.mode = robot_state_t::MODE_DISCONNECTED;
   robot.plan_id = -1;
+  ASSERT_TRUE(node.onRobot(robot).ok());
+  robot.mode = robot_state_t::MODE_FAULT;
   ASSERT_TRUE(node.onRobot(robot).ok());
   const Pose T = makePoseRpy({0.02, 0.01, 0.03}, 0, 0, 0.3);
   ASSERT_TRUE(node.onPose(test::cubePose(utime, T), utime).ok());

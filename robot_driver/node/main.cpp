@@ -46,6 +46,7 @@ robot_state_t toMsg(const robot::DriverStatus& s, std::int64_t utime) {
   m.utime = utime;
   m.mode = static_cast<std::int8_t>(s.mode);
   m.mode_reason = s.reason;
+  m.measured = s.measured;
   for (int i = 0; i < 6; ++i) {
     m.q[i] = s.q[i];
     m.qd[i] = s.qd[i];

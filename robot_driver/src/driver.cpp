@@ -139,6 +139,9 @@ void Driver::setMode(DriverMode m, const std::string& reason) {
   std::lock_guard<PiMutex> lock(mutex_);
   status_.mode = m;
   status_.reason = reason;
+  // Without a connection the arm may move (jogged, or braking after a controller error): its last
+  // position read is no longer where it is.
+  if (!session_.isOpen()) status_.measured = false;
 }
 
 // ---- the loop -------------------------------------------------------------------------------------
@@ -149,8 +152,8 @@ bool Driver::enableFromCurrentPosition() {
   Joints q;
   SessionResult r = session_.readJoints(&q);
   if (!r.ok) {
-    setMode(r.connectionLost() ? DriverMode::Disconnected : DriverMode::Fault, r.error);
     if (r.connectionLost()) session_.abort();
+    setMode(r.connectionLost() ? DriverMode::Disconnected : DriverMode::Fault, r.error);
     return false;
   }
   generator_.reset(q);
@@ -161,6 +164,7 @@ bool Driver::enableFromCurrentPosition() {
   {
     std::lock_guard<PiMutex> lock(mutex_);
     q_command_shared_ = q;
+    status_.measured = true;
     status_.q = q;
     status_.q_command = q;
     status_.qd = {};
@@ -187,8 +191,8 @@ bool Driver::enableFromCurrentPosition() {
     }
   r = session_.enable();
   if (!r.ok) {
-    setMode(r.connectionLost() ? DriverMode::Disconnected : DriverMode::Fault, r.error);
     if (r.connectionLost()) session_.abort();
+    setMode(r.connectionLost() ? DriverMode::Disconnected : DriverMode::Fault, r.error);
     return false;
   }
   session_.setTool(Tool::kOff, true);
@@ -372,6 +376,7 @@ bool Driver::slaveCycle() {
     std::lock_guard<PiMutex> lock(mutex_);
     if (!lost) ++status_.stats.faults;
     status_.mode = lost ? DriverMode::Disconnected : DriverMode::Fault;
+    if (lost) status_.measured = false;
     status_.reason = (lost ? "controller connection lost: " : "controller error: ") + r.error;
     status_.qd = {};
     return false;

@@ -59,7 +59,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       ++offered;
     } else {
       robot_state_t m;
-      if (!decoded(m, msg, n) || m.mode == robot_state_t::MODE_DISCONNECTED) return;
+      if (!decoded(m, msg, n) || !m.measured) return;
       if (const std::optional<Pose> T = node::fromMsg(m.T_cell_nozzle)) proxy.addNozzlePose(m.utime, *T);
     }
     for (const CellCloud& cloud : proxy.poll(now_us)) check(cloud, c.crop);

@@ -52,7 +52,7 @@ pp.T_cell_part, pp.eta, pp.fitness, pp.inlier_ratio, pp.iterations, pp.compute_m
 pp.template_updated, pp.template_version, pp.template_resolution = True, 1, 0.0005
 pp.template_size, pp.template_xyz = 2, [[1, 2, 3], [4, 5, 6]]
 rs = robot_state_t()
-rs.utime, rs.mode, rs.mode_reason, rs.q, rs.qd = 1000, 0, "", [0, 0, 1.57, 0, 1.57, 0], [0] * 6
+rs.utime, rs.mode, rs.mode_reason, rs.measured, rs.q, rs.qd = 1000, 0, "", True, [0, 0, 1.57, 0, 1.57, 0], [0] * 6
 rs.T_cell_nozzle, rs.tool, rs.plan_id, rs.waypoint_index, rs.plan_utime = pose((0, 0, 0.4)), 0, -1, 0, 0
 pr = progress_t()
 pr.utime, pr.part, pr.phase, pr.status, pr.status_reason = 1000, "cube", 2, 0, ""

@@ -135,8 +135,8 @@ void SceneModel::onSimTruth(const sim_truth_t& msg) {
     p.eta_true = t.eta;
   }
   scene_.has_truth = true;
-  // No driver heard, or one without a controller (its nozzle is not measured): the simulated one.
-  if (scene_.robot_mode < 0 || scene_.robot_mode == robot_state_t::MODE_DISCONNECTED) {
+  // No driver heard, or one that has not read the arm (no controller connection): the simulated one.
+  if (scene_.robot_mode < 0 || !scene_.robot_measured) {
     if (const std::optional<Pose> N = node::fromMsg(msg.T_cell_nozzle, &why)) {
       scene_.has_nozzle = true;
       scene_.T_cell_nozzle = *N;
@@ -166,14 +166,16 @@ void SceneModel::onNozzlePlan(const nozzle_plan_t& msg) {
 }
 
 void SceneModel::onRobotState(const robot_state_t& msg) {
-  // A driver without a controller has not measured the nozzle (before the first connection: the
-  // cell's origin): its mode is shown, the nozzle stays where it was last seen.
-  const bool measured = msg.mode != robot_state_t::MODE_DISCONNECTED;
+  // A driver that has not read the arm over its current connection has not measured the nozzle
+  // (before the first read: the cell's origin): its mode is shown, the nozzle stays where it was
+  // last seen.
+  const bool measured = msg.measured;
   std::string why;
   const std::optional<Pose> N = measured ? node::fromMsg(msg.T_cell_nozzle, &why) : std::nullopt;
   if (measured && !N) return reject("ROBOT_STATE: " + why);
   if (scene_.robot_mode != msg.mode) ++scene_.versions.text;
   scene_.robot_mode = msg.mode;
+  scene_.robot_measured = measured;
   if (!measured) return;
   scene_.has_nozzle = true;
   scene_.T_cell_nozzle = *N;

@@ -152,7 +152,13 @@ TEST(SceneModel, ProgressPlanRobotAndTruth) {
   model.onRobotState(rs);
   model.onSimTruth(truth);
   EXPECT_NEAR(model.scene().T_cell_nozzle.translation().z(), 0.3, 1e-12);
+  // Nor one the controller refused before it read the arm.
+  rs.mode = robot_state_t::MODE_FAULT;
+  model.onRobotState(rs);
+  model.onSimTruth(truth);
+  EXPECT_NEAR(model.scene().T_cell_nozzle.translation().z(), 0.3, 1e-12);
   rs.mode = robot_state_t::MODE_FOLLOWING;
+  rs.measured = true;
   rs.T_cell_nozzle = node::toMsg(makePoseRpy({0, 0, 0.25}, 0, 0, 0));
   model.onRobotState(rs);
   model.onSimTruth(truth);

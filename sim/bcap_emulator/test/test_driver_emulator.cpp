@@ -482,12 +482,28 @@ TEST(DriverEmulator, AnArmOutsideTheLimitsIsNotEnabled) {
   std::this_thread::sleep_for(300ms);  // three retries
   EXPECT_EQ(rig.driver().status().mode, DriverMode::Fault);
   EXPECT_EQ(rig.emu().joints().q, home);
+  // A fault with the arm read: where it is, for the planner and the self-filter.
+  EXPECT_TRUE(rig.driver().status().measured);
+  EXPECT_EQ(rig.driver().status().q, home);
   Joints inside = home;
   inside[0] = home[0] - 0.2;
   ASSERT_TRUE(rig.emu().setJoints(inside));
   ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0)) << rig.driver().status().reason;
   EXPECT_EQ(rig.emu().joints().q, inside);
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+}
+
+// A controller refusing the connection (here: an I/O variable it does not have) before the driver
+// has ever read the arm: FAULT, with joints all 0 that are not the arm's, and said so (the
+// planner once planned from them as it did from a disconnected driver's).
+TEST(DriverEmulator, AFaultBeforeTheFirstReadHasNotMeasuredTheArm) {
+  Rig rig([](DriverConfig& c) { c.session.vacuum_variable = "VALVE1"; });
+  ASSERT_TRUE(rig.waitMode(DriverMode::Fault, 3.0)) << rig.driver().status().reason;
+  const DriverStatus st = rig.driver().status();
+  EXPECT_NE(st.reason.find("VALVE1"), std::string::npos) << st.reason;
+  EXPECT_FALSE(st.measured);
+  EXPECT_EQ(st.q, Joints{});
+  EXPECT_EQ(rig.driver().status().stats.exchanges, 0);
 }
 
 // A plan taken while the controller is away is prepared from the last command; if the arm was
@@ -497,8 +513,10 @@ TEST(DriverEmulator, AnArmOutsideTheLimitsIsNotEnabled) {
 TEST(DriverEmulator, APlanTakenWhileAwayStartsFromWhereTheArmIs) {
   Rig rig([](DriverConfig& c) { c.reconnect_period_s = 1.5; });
   ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  EXPECT_TRUE(rig.driver().status().measured);
   rig.emu().dropConnections();
   ASSERT_TRUE(rig.waitMode(DriverMode::Disconnected, 1.0)) << rig.driver().status().reason;
+  EXPECT_FALSE(rig.driver().status().measured) << "the arm may move while the driver is away";
   const Eigen::Vector3d first(0.0, 0.0, 0.25), last(0.1, 0.0, 0.25), moved(0.0, 0.12, 0.2);
   ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {first, last}, 0.1)).accepted);
   const auto q = inverseNozzle(rig.cfg().arm, down(moved.x(), moved.y(), moved.z()), rig.emu().joints().q);

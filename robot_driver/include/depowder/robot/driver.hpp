@@ -54,6 +54,9 @@ struct DriverStats {
 struct DriverStatus {
   DriverMode mode = DriverMode::Disconnected;
   std::string reason;
+  /// q is where the arm is: read over the current controller connection (false before the first
+  /// read and whenever the connection is down; q is then the last known, or all 0)
+  bool measured = false;
   Joints q{};                             ///< rad, measured (the controller's reply)
   Joints q_command{};                     ///< rad, last command sent
   Joints qd{};                            ///< rad/s, commanded velocity
