@@ -34,6 +34,7 @@
 #include "depowder/robot_state_t.hpp"
 #include "depowder/sim_truth_t.hpp"
 #include "depowder/stats.hpp"
+#include "run_end.hpp"
 
 using namespace depowder;
 
@@ -45,7 +46,7 @@ struct PartView {
   part_truth_t truth{};
   bool has_pose = false, has_progress = false, has_truth = false;
   std::int64_t poses = 0;
-  std::int64_t done_since = 0;  // node::steadyUtime when the part was first seen DONE
+  tools::PartEnd end;  // DONE since when, tracked and true poses still since when (node::steadyUtime)
 };
 
 const char* phaseName(int phase) {
@@ -124,7 +125,8 @@ int usage(const std::string& error = "") {
   if (!error.empty()) std::cerr << "depowder-monitor: " << error << "\n";
   std::cerr << "usage: depowder-monitor [--parts N] [--timeout S] [--summary FILE.json] [--cell FILE] [--url URL] "
                "[--prefix P]\n"
-               "  Exits 0 when every part is done (held 1 s) with no nozzle-part contact; 1 on timeout or\n"
+               "  Exits 0 when every part is done (held 1 s, and at rest: tracked and true poses still for\n"
+               "  1 s, or 10 s after done at the latest) with no nozzle-part contact; 1 on timeout or\n"
                "  contact; --parts N waits until N parts have been heard of (default 1). The bus is the\n"
                "  cell file's (lcm section; default: the default cell) unless --url / --prefix.\n";
   return error.empty() ? 0 : 2;
@@ -183,6 +185,7 @@ int main(int argc, char** argv) {
       p.pose = m;
       p.has_pose = true;
       ++p.poses;
+      if (const std::optional<Pose> T = node::fromMsg(m.T_cell_part)) p.end.tracked.see(*T, node::steadyUtime());
       pose_utimes[m.part].insert(m.utime);
       pose_latency_ms.push_back(secondsBetween(node::nowUtime(), m.utime) * 1e3);
     });
@@ -191,8 +194,8 @@ int main(int argc, char** argv) {
       p.progress = m;
       p.has_progress = true;
       if (m.utime > 0) progress_latency_ms.push_back(secondsBetween(node::nowUtime(), m.utime) * 1e3);
-      if (m.phase == progress_t::PHASE_DONE && p.done_since == 0) p.done_since = node::steadyUtime();
-      if (m.phase != progress_t::PHASE_DONE) p.done_since = 0;
+      if (m.phase == progress_t::PHASE_DONE && p.end.done_since_us == 0) p.end.done_since_us = node::steadyUtime();
+      if (m.phase != progress_t::PHASE_DONE) p.end.done_since_us = 0;
     });
     nozzle_plan_t plan{};  // the latest plan, named when a contact begins
     const auto start = std::chrono::steady_clock::now();
@@ -215,6 +218,7 @@ int main(int argc, char** argv) {
         }
         p.truth = t;
         p.has_truth = true;
+        if (const std::optional<Pose> T = node::fromMsg(t.T_cell_part)) p.end.truth.see(*T, node::steadyUtime());
       }
     });
     bus.subscribe<nozzle_plan_t>("NOZZLE_PLAN", [&](const nozzle_plan_t& m, const std::string&) {
@@ -240,7 +244,7 @@ int main(int argc, char** argv) {
       elapsed = std::chrono::duration<double>(now - start).count();
       std::size_t n_done = 0;
       for (const auto& [name, p] : parts)
-        if (p.done_since > 0 && node::steadyUtime() - p.done_since > 1000000) ++n_done;
+        if (p.end.finished(node::steadyUtime())) ++n_done;
       if (parts.size() >= expected_parts && n_done == parts.size()) {
         done = true;
         break;
@@ -293,13 +297,15 @@ int main(int argc, char** argv) {
           trans = translationDistance(*est, *tru) * 100;
         }
       }
-      std::printf("  %-10s phase %-24s eta %5.1f%%  true eta %5.1f%%  pose error %.2f deg %.2f cm  (%s)\n",
+      const bool at_rest = p.end.atRest(node::steadyUtime());
+      std::printf("  %-10s phase %-24s eta %5.1f%%  true eta %5.1f%%  pose error %.2f deg %.2f cm  (%s%s)\n",
                   name.c_str(), phaseName(p.progress.phase), 100 * p.progress.eta, 100 * p.truth.eta, rot, trans,
-                  trackName(p.pose.status));
+                  trackName(p.pose.status), at_rest ? "" : "; still moving");
       json << (first ? "\n" : ",\n") << "    {\"part\": " << jsonValue(name) << ", \"phase\": " << int(p.progress.phase)
            << ", \"eta\": " << jsonValue(p.progress.eta)
            << ", \"true_eta\": " << jsonValue(p.has_truth ? p.truth.eta : NAN)
-           << ", \"rot_err_deg\": " << jsonValue(rot) << ", \"trans_err_cm\": " << jsonValue(trans) << "}";
+           << ", \"rot_err_deg\": " << jsonValue(rot) << ", \"trans_err_cm\": " << jsonValue(trans)
+           << ", \"at_rest\": " << (at_rest ? "true" : "false") << "}";
       first = false;
     }
     const int contacts = has_truth ? truth.contact_count : -1;
