@@ -273,7 +273,9 @@ std::vector<std::string> statusLines(const Scene& scene) {
                   static_cast<long long>(scene.plan_id), about.c_str(), scene.plan.size());
     cell += buf;
   }
-  if (scene.robot_mode >= 0) cell += std::string(cell.empty() ? "" : "   ") + "robot " + modeName(scene.robot_mode);
+  if (scene.robot_mode >= 0)
+    cell += std::string(cell.empty() ? "" : "   ") + "robot " + modeName(scene.robot_mode) +
+            (scene.robot_measured ? "" : " (arm not read)");
   if (!cell.empty()) lines.push_back(cell);
   return lines;
 }

@@ -152,11 +152,12 @@ TEST(SceneModel, ProgressPlanRobotAndTruth) {
   model.onRobotState(rs);
   model.onSimTruth(truth);
   EXPECT_NEAR(model.scene().T_cell_nozzle.translation().z(), 0.3, 1e-12);
-  // Nor one the controller refused before it read the arm.
+  // Nor one the controller refused before it read the arm; the status line says so.
   rs.mode = robot_state_t::MODE_FAULT;
   model.onRobotState(rs);
   model.onSimTruth(truth);
   EXPECT_NEAR(model.scene().T_cell_nozzle.translation().z(), 0.3, 1e-12);
+  EXPECT_NE(statusLines(model.scene()).back().find("(arm not read)"), std::string::npos);
   rs.mode = robot_state_t::MODE_FOLLOWING;
   rs.measured = true;
   rs.T_cell_nozzle = node::toMsg(makePoseRpy({0, 0, 0.25}, 0, 0, 0));
@@ -173,6 +174,7 @@ TEST(SceneModel, ProgressPlanRobotAndTruth) {
   EXPECT_NE(lines[0].find("no pose"), std::string::npos);
   EXPECT_NE(lines[1].find("plan 7 (contour, cube, 4 waypoints)"), std::string::npos);
   EXPECT_NE(lines[1].find("robot following"), std::string::npos);
+  EXPECT_EQ(lines[1].find("not read"), std::string::npos) << lines[1];
 }
 
 TEST(SceneModel, SceneFromCellLoadsMeshesAndBox) {
