@@ -136,7 +136,7 @@ void SceneModel::onSimTruth(const sim_truth_t& msg) {
   }
   scene_.has_truth = true;
   // No driver heard, or one that has not read the arm (no controller connection): the simulated one.
-  if (scene_.robot_mode < 0 || !scene_.robot_measured) {
+  if (!scene_.robot_measured) {
     if (const std::optional<Pose> N = node::fromMsg(msg.T_cell_nozzle, &why)) {
       scene_.has_nozzle = true;
       scene_.T_cell_nozzle = *N;
@@ -169,14 +169,13 @@ void SceneModel::onRobotState(const robot_state_t& msg) {
   // A driver that has not read the arm over its current connection has not measured the nozzle
   // (before the first read: the cell's origin): its mode is shown, the nozzle stays where it was
   // last seen.
-  const bool measured = msg.measured;
   std::string why;
-  const std::optional<Pose> N = measured ? node::fromMsg(msg.T_cell_nozzle, &why) : std::nullopt;
-  if (measured && !N) return reject("ROBOT_STATE: " + why);
+  const std::optional<Pose> N = msg.measured ? node::fromMsg(msg.T_cell_nozzle, &why) : std::nullopt;
+  if (msg.measured && !N) return reject("ROBOT_STATE: " + why);
   if (scene_.robot_mode != msg.mode) ++scene_.versions.text;
   scene_.robot_mode = msg.mode;
-  scene_.robot_measured = measured;
-  if (!measured) return;
+  scene_.robot_measured = msg.measured;
+  if (!msg.measured) return;
   scene_.has_nozzle = true;
   scene_.T_cell_nozzle = *N;
   scene_.tool = msg.tool;

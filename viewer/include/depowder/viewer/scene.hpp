@@ -73,7 +73,7 @@ struct Scene {
   Pose T_cell_nozzle = Pose::Identity();  ///< z axis = spray direction
   std::int8_t tool = 0;                   ///< waypoint_t::TOOL_*
   std::int8_t robot_mode = -1;            ///< robot_state_t::MODE_*, -1 = no ROBOT_STATE heard
-  bool robot_measured = false;            ///< the last ROBOT_STATE's nozzle was read from the arm
+  bool robot_measured = false;            ///< the last ROBOT_STATE's nozzle was read from the arm (false: none heard)
   /// The tool drawn at T_cell_nozzle, in the nozzle frame (tip at the origin, body along -z):
   /// the nozzle tube up to the flange and the end effector on it (sceneFromCell). Null: a
   /// small cylinder marks the tip.
