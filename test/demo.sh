@@ -3,8 +3,8 @@
 # end (config/deploy/demo.yaml, the cell in a private network namespace; as root, or it skips).
 # Checked from the run's summary.json: the monitor saw every part done, no nozzle-part contact,
 # no driver fault but the host's late slvMoves (below), no safety stop or ESTOP, and each
-# part at rest at the end, its final pose and eta within the bounds below of the simulator's truth (the README's
-# measured row: 0.60 deg / 0.09 cm, eta 90.4 % against 90.0 %). The run directory (runs/...)
+# part at rest at the end, its final pose and eta within the bounds below of the simulator's
+# truth (the README's measured row: 0.60 deg / 0.09 cm, eta 90.4 % against 90.0 %). The run directory (runs/...)
 # is removed when the test passes and kept, with its path printed, when it fails. scripts/demo
 # builds into SOURCE_DIR/build, so the test runs only from that build directory (it skips from
 # any other: it would start a second build).

@@ -54,7 +54,7 @@ TEST(PartEnd, WaitsForTheTrackerToFollowALastSecondMove) {
 
 TEST(PartEnd, AFitThatNeverSettlesEndsTenSecondsAfterDone) {
   PartEnd p;
-  p.done_since_us = 0 + 1;
+  p.done_since_us = 1;
   for (int k = 0; k <= 600; ++k) p.tracked.see(turned(k % 2 ? 1.0 : 0.0), 1 + k * kS / 30);  // flips 1 deg
   EXPECT_FALSE(p.finished(9 * kS));
   EXPECT_TRUE(p.finished(10 * kS + 1));

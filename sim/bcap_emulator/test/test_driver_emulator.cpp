@@ -503,7 +503,7 @@ TEST(DriverEmulator, AFaultBeforeTheFirstReadHasNotMeasuredTheArm) {
   EXPECT_NE(st.reason.find("VALVE1"), std::string::npos) << st.reason;
   EXPECT_FALSE(st.measured);
   EXPECT_EQ(st.q, Joints{});
-  EXPECT_EQ(rig.driver().status().stats.exchanges, 0);
+  EXPECT_EQ(st.stats.exchanges, 0);
 }
 
 // A plan taken while the controller is away is prepared from the last command; if the arm was
