@@ -15,6 +15,8 @@
 #include "depowder/heartbeat_t.hpp"
 #include "depowder/node/log_time.hpp"
 #include "depowder/process_under_test.hpp"
+#include "depowder/robot_state_t.hpp"
+#include "depowder/robot_state_v1_t.hpp"
 #include "depowder/test_messages.hpp"
 
 namespace {
@@ -203,6 +205,116 @@ TEST_F(Logmend, RefusesToWriteOverTheRecordingAndNamesAnUnreadableLog) {
   EXPECT_EQ(eventTimes(path("run.lcmlog")), r.recorded);
   EXPECT_EQ(run({path("missing.lcmlog")}, &out), 2);
   EXPECT_NE(out.find("cannot read LCM log '" + path("missing.lcmlog") + "'"), std::string::npos) << out;
+}
+
+TEST(LegacyTypes, RobotStateV1HasTheFingerprintOfTheLayoutBeforeMeasured) {
+  // robot_state_t's fingerprint before `measured` (its file at the commit before eeee3d1, through
+  // lcm-gen; the first 8 bytes of each ROBOT_STATE recorded then): another one leaves them unread.
+  EXPECT_EQ(static_cast<std::uint64_t>(robot_state_v1_t::getHash()), 0xd35f45a7f8444d07ULL);
+  EXPECT_NE(robot_state_v1_t::getHash(), robot_state_t::getHash());
+}
+
+TEST_F(Logmend, WritesRobotStateRecordedBeforeMeasuredInThePresentType) {
+  // Two cells' drivers (channels ROBOT_STATE and B_ROBOT_STATE), as a driver before `measured`
+  // recorded them: the mode each message says, and whether the arm had been read then.
+  struct Old {
+    const char* channel;
+    std::int8_t mode;
+    const char* reason;
+    bool measured;  // as the present driver would say
+  };
+  const Old olds[] = {
+      {"ROBOT_STATE", robot_state_v1_t::MODE_DISCONNECTED, "controller unreachable", false},
+      {"ROBOT_STATE", robot_state_v1_t::MODE_FAULT, "controller refused the session", false},  // joints all 0
+      {"B_ROBOT_STATE", robot_state_v1_t::MODE_IDLE, "connected", true},
+      {"ROBOT_STATE", robot_state_v1_t::MODE_IDLE, "connected", true},
+      {"ROBOT_STATE", robot_state_v1_t::MODE_FOLLOWING, "following plan 3", true},
+      {"B_ROBOT_STATE", robot_state_v1_t::MODE_ESTOPPED, "ESTOP active", true},  // the arm read, stopped
+      {"ROBOT_STATE", robot_state_v1_t::MODE_FAULT, "controller error: slvMove late", true},
+      {"ROBOT_STATE", robot_state_v1_t::MODE_HOLDING, "stale plan", true},
+      {"ROBOT_STATE", robot_state_v1_t::MODE_DISCONNECTED, "controller connection lost", false},
+      {"ROBOT_STATE", robot_state_v1_t::MODE_ESTOPPED, "ESTOP active", false},  // while disconnected
+      {"B_ROBOT_STATE", robot_state_v1_t::MODE_FAULT, "controller error", true},
+  };
+  const std::size_t n = std::size(olds);
+  std::vector<robot_state_v1_t> sent;
+  {
+    lcm::LogFile log(path("old.lcmlog"), "w");
+    ASSERT_TRUE(log.good());
+    for (std::size_t i = 0; i < n; ++i) {
+      robot_state_v1_t m{};
+      m.utime = 1'795'000'000 * kS + static_cast<std::int64_t>(i) * 8000;
+      m.mode = olds[i].mode;
+      m.mode_reason = olds[i].reason;
+      for (int j = 0; j < 6; ++j) {
+        m.q[j] = i == 1 ? 0.0 : 0.1 * static_cast<double>(i) + 0.01 * j;
+        m.qd[j] = -0.02 * j;
+      }
+      m.T_cell_nozzle.position[2] = 0.3 + 0.001 * static_cast<double>(i);
+      m.T_cell_nozzle.orientation[0] = 1;
+      m.tool = static_cast<std::int8_t>(i % 3);
+      m.plan_id = static_cast<std::int64_t>(i) - 1;
+      m.waypoint_index = static_cast<std::int32_t>(2 * i);
+      m.plan_utime = m.utime - 50'000;
+      sent.push_back(m);
+      ASSERT_EQ(testutil::writeMessage(log, olds[i].channel, m, m.utime), 0);
+    }
+    robot_state_t present{};  // a message in the present type: kept byte for byte
+    present.mode = robot_state_t::MODE_IDLE;
+    present.measured = true;
+    ASSERT_EQ(testutil::writeMessage(log, "ROBOT_STATE", present, sent.back().utime + 8000), 0);
+    // The legacy fingerprint with too few bytes after it: not decodable, kept as recorded.
+    std::vector<std::uint8_t> cut = testutil::encoded(sent[0]);
+    cut.resize(20);
+    ASSERT_EQ(testutil::writeBytes(log, "ROBOT_STATE", cut, sent.back().utime + 16000), 0);
+  }
+  std::string out;
+  ASSERT_EQ(run({path("old.lcmlog"), path("new.lcmlog")}, &out), 0) << out;
+  EXPECT_NE(out.find("11 ROBOT_STATE recorded before robot_state_t gained `measured` written as robot_state_t, "
+                     "7 of them measured"),
+            std::string::npos)
+      << out;
+
+  lcm::LogFile log(path("new.lcmlog"), "r");
+  ASSERT_TRUE(log.good());
+  for (std::size_t i = 0; i < n; ++i) {
+    const lcm::LogEvent* e = log.readNextEvent();
+    ASSERT_NE(e, nullptr) << i;
+    EXPECT_EQ(e->channel, olds[i].channel);
+    robot_state_t m;
+    ASSERT_GE(m.decode(e->data, 0, e->datalen), 0) << "message " << i << " not in the present type";
+    const robot_state_v1_t& was = sent[i];
+    EXPECT_EQ(e->timestamp, was.utime);
+    EXPECT_EQ(m.measured, olds[i].measured) << i << ": " << olds[i].reason;
+    EXPECT_EQ(m.utime, was.utime);
+    EXPECT_EQ(m.mode, was.mode);
+    EXPECT_EQ(m.mode_reason, was.mode_reason);
+    for (int j = 0; j < 6; ++j) {
+      EXPECT_EQ(m.q[j], was.q[j]);
+      EXPECT_EQ(m.qd[j], was.qd[j]);
+    }
+    EXPECT_EQ(m.T_cell_nozzle.position[2], was.T_cell_nozzle.position[2]);
+    EXPECT_EQ(m.T_cell_nozzle.orientation[0], 1.0);
+    EXPECT_EQ(m.tool, was.tool);
+    EXPECT_EQ(m.plan_id, was.plan_id);
+    EXPECT_EQ(m.waypoint_index, was.waypoint_index);
+    EXPECT_EQ(m.plan_utime, was.plan_utime);
+  }
+  const lcm::LogEvent* present = log.readNextEvent();
+  ASSERT_NE(present, nullptr);
+  robot_state_t m;
+  EXPECT_EQ(m.decode(present->data, 0, present->datalen), present->datalen);
+  EXPECT_TRUE(m.measured);
+  const lcm::LogEvent* cut = log.readNextEvent();
+  ASSERT_NE(cut, nullptr);
+  EXPECT_EQ(cut->datalen, 20);
+  EXPECT_EQ(log.readNextEvent(), nullptr);
+
+  // Without MENDED it only counts them.
+  ASSERT_EQ(run({path("old.lcmlog")}, &out), 0) << out;
+  EXPECT_NE(out.find("11 ROBOT_STATE recorded before robot_state_t gained `measured`, 7 of them measured"),
+            std::string::npos)
+      << out;
 }
 
 }  // namespace
