@@ -1,10 +1,11 @@
 #!/bin/sh
 # The project's lcm-spy launcher, started by depowder-launch beside a publishing process,
-# runs under Xvfb with Java 17 and finds every depowder type (one per lcmtypes/*.lcm).
+# runs under Xvfb with Java 17 and finds every depowder type (one per lcmtypes/*.lcm and
+# lcmtypes/legacy/*.lcm).
 set -eu
 BIN=$1
 SRC=$2
-expected=$(ls "$SRC"/lcmtypes/*.lcm | wc -l)
+expected=$(ls "$SRC"/lcmtypes/*.lcm "$SRC"/lcmtypes/legacy/*.lcm | wc -l)
 cat > spy.yaml <<'YAML'
 hosts:
   - name: t
