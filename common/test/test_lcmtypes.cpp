@@ -16,6 +16,7 @@
 #include "depowder/point_cloud_t.hpp"
 #include "depowder/progress_t.hpp"
 #include "depowder/robot_state_t.hpp"
+#include "depowder/robot_state_v1_t.hpp"
 #include "depowder/sim_truth_t.hpp"
 
 using namespace depowder;
@@ -265,6 +266,29 @@ TEST(Bus, GarbageAndWrongTypesAreCountedNotFatal) {
   const auto errors = bus.takeErrors();
   ASSERT_FALSE(errors.empty());
   EXPECT_NE(errors.back().find("boom"), std::string::npos);
+}
+
+// A ROBOT_STATE recorded before robot_state_t gained `measured`, played again: refused and
+// counted like any message of another type, and the error says what it is and what converts it.
+TEST(Bus, ALegacyRobotStateIsNamedWithItsConversion) {
+  node::Bus bus("memq://");
+  int got = 0;
+  bus.subscribe<robot_state_t>("ROBOT_STATE", [&](const robot_state_t&, const std::string&) { ++got; });
+  robot_state_v1_t old{};
+  old.mode = robot_state_v1_t::MODE_IDLE;
+  bus.publish("ROBOT_STATE", old);
+  heartbeat_t other{};
+  bus.publish("ROBOT_STATE", other);
+  while (bus.spinOnce(0) > 0) {
+  }
+  EXPECT_EQ(got, 0);
+  EXPECT_EQ(bus.counters().decode_errors, 2);
+  const auto errors = bus.takeErrors();
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_NE(errors[0].find("on ROBOT_STATE: robot_state_t as recorded before it gained `measured`"), std::string::npos)
+      << errors[0];
+  EXPECT_NE(errors[0].find("depowder-logmend OLD.lcmlog NEW.lcmlog"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[1].find("(wrong type or corrupt)"), std::string::npos) << errors[1];
 }
 
 // drain() handles what has already arrived, up to its limit, and returns at once when nothing is

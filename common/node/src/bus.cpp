@@ -7,8 +7,23 @@
 #include <utility>
 
 #include "depowder/node/shutdown.hpp"
+#include "depowder/robot_state_v1_t.hpp"
 
 namespace depowder::node {
+
+namespace {
+/// Why a message did not decode, when its fingerprint is a type's as it was before a field was
+/// added (lcmtypes/legacy): a log recorded then, played again.
+std::string legacyHint(const void* data, std::uint32_t size) {
+  if (size < 8) return "";
+  std::uint64_t hash = 0;
+  for (int i = 0; i < 8; ++i) hash = hash << 8 | static_cast<const std::uint8_t*>(data)[i];
+  if (hash == static_cast<std::uint64_t>(robot_state_v1_t::getHash()))
+    return ": robot_state_t as recorded before it gained `measured` (commit eeee3d1); "
+           "`depowder-logmend OLD.lcmlog NEW.lcmlog` writes it in the present type";
+  return "";
+}
+}  // namespace
 
 struct Bus::Subscription {
   Bus* bus;
@@ -19,8 +34,9 @@ struct Bus::Subscription {
         ++bus->counters_.received;
       } else {
         ++bus->counters_.decode_errors;
+        const std::string legacy = legacyHint(rbuf->data, rbuf->data_size);
         bus->keepError("could not decode a " + std::to_string(rbuf->data_size) + "-byte message on " + ch +
-                       " (wrong type or corrupt)");
+                       (legacy.empty() ? " (wrong type or corrupt)" : legacy));
       }
     } catch (const std::exception& e) {
       ++bus->counters_.handler_errors;
