@@ -117,8 +117,13 @@ void Json::dumpTo(std::string& out, int indent, int depth) const {
         out += "null";
         return;
       }
+      // The shortest form that reads back as the same double: a report re-rendered from the
+      // JSON (`report --from`) compares the methods' figures exactly as the run did.
       char buf[32];
-      std::snprintf(buf, sizeof buf, "%.10g", number_);
+      for (int digits = 15; digits <= 17; ++digits) {
+        std::snprintf(buf, sizeof buf, "%.*g", digits, number_);
+        if (std::strtod(buf, nullptr) == number_) break;
+      }
       out += buf;
       return;
     }

@@ -75,6 +75,12 @@ TEST(EvalJson, RoundTripAndErrors) {
   EXPECT_EQ(back.at("rows").at(0).at("part").string(), "cu\"p\n");
   EXPECT_DOUBLE_EQ(back.at("rows").at(0).at("v").number(), 0.125);
   EXPECT_DOUBLE_EQ(back.at("rows").at(0).at("list").at(1).number(), 2.5);
+  // Numbers read back exactly, in their shortest form: two methods' figures that differ in the
+  // 11th digit stay apart when a report is rendered again from the JSON.
+  const std::vector<double> numbers{0.1, 0.1 + 0.2, 0.10311111111111, 0.10311111111112, 1e-300, -2.0 / 3.0};
+  const Json exact = Json::parse(Json::arrayOf(numbers).dump());
+  for (std::size_t i = 0; i < numbers.size(); ++i) EXPECT_EQ(exact.at(i).number(), numbers[i]) << i;
+  EXPECT_EQ(Json(0.1).dump(), "0.1");
   EXPECT_THROW(Json::parse("{\"a\": }"), JsonError);
   EXPECT_THROW(Json::parse("[1, 2"), JsonError);
   EXPECT_EQ(Json::parse("\"\\u00e9\\u0041\"").string(),
