@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "depowder/node/convert.hpp"
+#include "depowder/node/log_reader.hpp"
 #include "depowder/part_pose_t.hpp"
 #include "depowder/progress_t.hpp"
 #include "depowder/sim_truth_t.hpp"
@@ -42,9 +43,10 @@ struct Truth {
 
 template <class Visit>
 void readLog(const std::string& path, Visit visit) {
-  lcm::LogFile log(path, "r");
-  if (!log.good()) throw std::runtime_error("cannot read LCM log '" + path + "'");
-  for (const lcm::LogEvent* e; (e = log.readNextEvent()) != nullptr;) visit(*e);
+  node::LogReader log(path);
+  for (const lcm::LogEvent* e; (e = log.next()) != nullptr;) visit(*e);
+  for (const node::LogDamage& d : log.damage())
+    std::cerr << "depowder-logcheck: " << path << ": " << node::describe(d) << "\n";
 }
 
 Frames readOutputs(const std::string& path, std::string prefix) {

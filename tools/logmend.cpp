@@ -2,7 +2,8 @@
 // times, so that lcm-logplayer replays it at the pace it was recorded (log_time.hpp). Channels,
 // messages and their stamps stay as recorded: processes fed the replay meet the steps of their
 // sources' clocks as the live cell did. ROBOT_STATE recorded before robot_state_t gained
-// `measured` is written again in the present type, the one change to a message.
+// `measured` is written again in the present type, the one change to a message. A damaged log
+// (log_reader.hpp) is mended into a whole one: every whole event, the damaged stretches named.
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
@@ -10,6 +11,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -82,9 +84,11 @@ int usage(const std::string& error = "") {
                "  with none, a step back counts no time and a long gap is kept. With MENDED, writes the log\n"
                "  again with each step taken out of its event times (channels, messages and their stamps\n"
                "  unchanged), for lcm-logplayer. ROBOT_STATE recorded before robot_state_t gained\n"
-               "  `measured` is written as robot_state_t, `measured` told by its modes. --prefix: the\n"
+               "  `measured` is written as robot_state_t, `measured` told by its modes. Bytes that are not\n"
+               "  a whole event (a recording cut short, a damaged disk) are named and left out; MENDED\n"
+               "  holds every whole event (lcm-logplayer stops at the first damaged header). --prefix: the\n"
                "  cell's channel prefix (its heartbeats on PHEARTBEAT).\n"
-               "  Exit 0 when done, 2 when a log cannot be read or written.\n";
+               "  Exit 0 when done, 2 when a log cannot be read or written, or RUN is not an LCM log.\n";
   return error.empty() ? 0 : 2;
 }
 
@@ -114,16 +118,24 @@ int main(int argc, char** argv) {
     if (!out.empty() && std::filesystem::equivalent(in, out, ec))
       return usage("MENDED must be another file than RUN: the recording is kept as it is");
     const node::LogTimes times = node::mendLogTimes(in, prefix + "HEARTBEAT");
+    if (times.utime.empty() && !times.damage.empty())
+      throw std::runtime_error("'" + in + "' is not an LCM log: none of its " + std::to_string(times.damage[0].bytes) +
+                               " bytes is an event");
     for (const node::LogGap& gap : times.gaps) std::cout << times.describe(gap) << "\n";
-    std::cout << times.utime.size() << " events, " << times.steps() << " steps of the clock taken out\n";
+    for (const node::LogDamage& d : times.damage) std::cout << node::describe(d) << "\n";
+    std::cout << times.utime.size() << " events, " << times.steps() << " steps of the clock taken out";
+    if (!times.damage.empty())
+      std::cout << ", " << times.damage.size() << (times.damage.size() == 1 ? " damaged stretch" : " damaged stretches")
+                << (out.empty() ? "" : " left out (every whole event is written)");
+    std::cout << "\n";
 
-    lcm::LogFile from(in, "r");
+    node::LogReader from(in);
     std::unique_ptr<lcm::LogFile> to;
     if (!out.empty()) to = std::make_unique<lcm::LogFile>(out, "w");
     if (to && !to->good()) throw std::runtime_error("cannot write LCM log '" + out + "'");
     RobotStateUpgrade upgrade;
     std::size_t k = 0;
-    for (const lcm::LogEvent* e; k < times.utime.size() && (e = from.readNextEvent()) != nullptr; ++k) {
+    for (const lcm::LogEvent* e; k < times.utime.size() && (e = from.next()) != nullptr; ++k) {
       lcm::LogEvent mended = *e;
       mended.timestamp = times.utime[k];
       upgrade.apply(mended);
@@ -133,7 +145,7 @@ int main(int argc, char** argv) {
     if (upgrade.upgraded() > 0)
       std::cout << upgrade.upgraded() << " ROBOT_STATE recorded before robot_state_t gained `measured`"
                 << (to ? " written as robot_state_t, " : ", ") << upgrade.measured() << " of them measured\n";
-    if (to && from.readNextEvent() != nullptr)
+    if (to && from.next() != nullptr)
       std::cerr << "depowder-logmend: '" << in << "' grew while it was read: its first " << k
                 << " events are written\n";
     return 0;

@@ -95,8 +95,8 @@ int main(int argc, char** argv) {
     // that the frames after a step back are not before the start.
     const node::LogTimes times = node::mendLogTimes(log_path, prefix + "HEARTBEAT");
     for (const node::LogGap& gap : times.gaps) std::cerr << "depowder-retrack: " << times.describe(gap) << "\n";
-    lcm::LogFile log(log_path, "r");
-    if (!log.good()) throw std::runtime_error("cannot read LCM log '" + log_path + "'");
+    for (const node::LogDamage& d : times.damage) std::cerr << "depowder-retrack: " << node::describe(d) << "\n";
+    node::LogReader log(log_path);
     std::map<std::string, Pose> truth;  // the newest SIM_TRUTH at or before the frame
     bool have_truth = false;
     Point nozzle = Point::Constant(NAN);  // its tip, cell frame, and its tool at the newest SIM_TRUTH
@@ -108,7 +108,7 @@ int main(int argc, char** argv) {
     std::map<std::string, std::pair<double, double>> last;       // deg, cm
     std::map<std::string, int> refits, resets, moving, falling;  // frames, per part
     std::size_t event = 0;                                       // its index in the log
-    for (const lcm::LogEvent* e; event < times.utime.size() && (e = log.readNextEvent()) != nullptr; ++event) {
+    for (const lcm::LogEvent* e; event < times.utime.size() && (e = log.next()) != nullptr; ++event) {
       if (e->channel == prefix + "SIM_TRUTH") {
         sim_truth_t m;
         if (m.decode(e->data, 0, e->datalen) < 0) {

@@ -11,6 +11,7 @@
 #include "depowder/depth_image_t.hpp"
 #include "depowder/node/bus.hpp"
 #include "depowder/node/cell.hpp"
+#include "depowder/node/log_reader.hpp"
 #include "depowder/node/shutdown.hpp"
 #include "depowder/perception/box_calibration.hpp"
 #include "depth_msg.hpp"
@@ -173,10 +174,9 @@ int main(int argc, char** argv) {
       return true;
     };
     if (!log_path.empty()) {
-      lcm::LogFile log(log_path, "r");
-      if (!log.good()) throw std::runtime_error("cannot read LCM log '" + log_path + "'");
+      node::LogReader log(log_path);
       const std::string channel = prefix + "DEPTH_";
-      for (const lcm::LogEvent* e; !done() && (e = log.readNextEvent()) != nullptr;) {
+      for (const lcm::LogEvent* e; !done() && (e = log.next()) != nullptr;) {
         if (e->channel.compare(0, channel.size(), channel) != 0) continue;
         depth_image_t msg;
         if (msg.decode(e->data, 0, e->datalen) < 0) {
@@ -185,6 +185,7 @@ int main(int argc, char** argv) {
         }
         take(msg);
       }
+      for (const node::LogDamage& d : log.damage()) std::cerr << "depowder-calibrate: " << node::describe(d) << "\n";
     } else {
       node::installShutdownHandlers();
       node::Bus bus(url, prefix);

@@ -130,3 +130,24 @@ for t, p in sent:
         uptime[p] = t
     last = rec
 write("log_time", "steps_and_silence", log_time)
+
+
+# fuzz_log_file: LCM logs as lcm-logger writes them (lcm/eventlog.c: big-endian sync word
+# 0xEDA1DA01, event number, time, channel length, data length, channel, data): a whole one of a
+# ROBOT_STATE and two POINTS, and one damaged as recordings are (bytes of another file after the
+# first event, a header with a channel length beyond 999, the last event cut short).
+def event(num, utime, channel, data):
+    return struct.pack(">IqqII", 0xEDA1DA01, num, utime, len(channel), len(data)) + channel.encode() + data
+
+
+state = robot_state_t()
+state.utime, state.mode_reason, state.T_cell_nozzle = 1795000000000000, "", pose((0.1, 0.0, 0.3))
+cloud = point_cloud_t()
+cloud.utime, cloud.frame, cloud.num_points = 1795000000033333, "cell", 0
+events = [event(0, 1795000000000100, "ROBOT_STATE", state.encode()),
+          event(1, 1795000000033400, "POINTS", cloud.encode()),
+          event(2, 1795000000066700, "POINTS", cloud.encode())]
+write("log_file", "whole", b"".join(events))
+bad = bytearray(events[1])
+bad[20:24] = struct.pack(">I", 5000)
+write("log_file", "damaged", events[0] + b"solid part\n" + bytes(bad) + events[2] + events[0][:-7])

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <random>
@@ -13,6 +15,7 @@
 #include <vector>
 
 #include "depowder/heartbeat_t.hpp"
+#include "depowder/node/log_reader.hpp"
 #include "depowder/node/log_time.hpp"
 #include "depowder/process_under_test.hpp"
 #include "depowder/robot_state_t.hpp"
@@ -205,6 +208,123 @@ TEST_F(Logmend, RefusesToWriteOverTheRecordingAndNamesAnUnreadableLog) {
   EXPECT_EQ(eventTimes(path("run.lcmlog")), r.recorded);
   EXPECT_EQ(run({path("missing.lcmlog")}, &out), 2);
   EXPECT_NE(out.find("cannot read LCM log '" + path("missing.lcmlog") + "'"), std::string::npos) << out;
+}
+
+/// The bytes of `file`.
+std::string bytesOf(const std::string& file) {
+  std::ifstream f(file, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+/// Six events written by lcm::LogFile, each its own bytes; and a log damaged as recordings are:
+/// event 0, 37 bytes of another file, event 1, event 2 with its channel length beyond LCM's 999,
+/// events 3 and 4, and event 5 cut 10 bytes short (the logger killed mid-write).
+struct DamagedLog {
+  std::vector<std::string> event;  ///< each event's bytes
+  std::string bytes;               ///< the damaged log
+  std::int64_t garbage_at = 0, bad_header_at = 0, cut_at = 0;
+};
+
+DamagedLog damagedLog(const std::string& scratch) {
+  DamagedLog d;
+  {
+    lcm::LogFile log(scratch, "w");
+    for (int i = 0; i < 6; ++i)
+      testutil::writeBytes(log, "CHANNEL_" + std::to_string(i), std::vector<std::uint8_t>(40 + i, std::uint8_t(i)),
+                           1'795'000'000'000'000 + i);
+  }
+  const std::string all = bytesOf(scratch);
+  for (std::size_t i = 0, at = 0; i < 6; at += d.event.back().size(), ++i)
+    d.event.push_back(all.substr(at, 28 + 9 + 40 + i));  // header, "CHANNEL_i", data
+  std::string bad = d.event[2];
+  bad[20] = '\x00', bad[21] = '\x00', bad[22] = '\x13', bad[23] = '\x88';  // channel length 5000
+  d.bytes = d.event[0];
+  d.garbage_at = static_cast<std::int64_t>(d.bytes.size());
+  d.bytes += std::string(37, 'x') + d.event[1];
+  d.bad_header_at = static_cast<std::int64_t>(d.bytes.size());
+  d.bytes += bad + d.event[3] + d.event[4];
+  d.cut_at = static_cast<std::int64_t>(d.bytes.size());
+  d.bytes += d.event[5].substr(0, d.event[5].size() - 10);
+  return d;
+}
+
+TEST(LogReader, ReadsAWholeLogAsLcmDoes) {
+  const std::string golden = std::string(DEPOWDER_SOURCE_DIR) + "/logs/static_cube.lcmlog";
+  if (!std::ifstream(golden)) GTEST_SKIP() << golden << " is absent";
+  lcm::LogFile lcm_log(golden, "r");
+  node::LogReader reader(golden);
+  std::size_t n = 0;
+  for (const lcm::LogEvent* a; (a = lcm_log.readNextEvent()) != nullptr; ++n) {
+    const lcm::LogEvent* b = reader.next();
+    ASSERT_NE(b, nullptr) << "event " << n;
+    EXPECT_EQ(b->eventnum, a->eventnum);
+    EXPECT_EQ(b->timestamp, a->timestamp);
+    EXPECT_EQ(b->channel, a->channel);
+    ASSERT_EQ(b->datalen, a->datalen);
+    EXPECT_EQ(std::memcmp(b->data, a->data, static_cast<std::size_t>(a->datalen)), 0) << "event " << n;
+  }
+  EXPECT_GT(n, 100u);
+  EXPECT_EQ(reader.next(), nullptr);
+  EXPECT_EQ(reader.events(), n);
+  EXPECT_TRUE(reader.damage().empty()) << node::describe(reader.damage()[0]);
+}
+
+TEST(LogReader, GoesOnPastDamageAndNamesEveryByteItLeftOut) {
+  const DamagedLog d = damagedLog(testing::TempDir() + "log_reader_event.lcmlog");
+  std::FILE* file = fmemopen(const_cast<char*>(d.bytes.data()), d.bytes.size(), "rb");
+  ASSERT_NE(file, nullptr);
+  node::LogReader reader(file);
+  std::vector<std::string> channels;
+  for (const lcm::LogEvent* e; (e = reader.next()) != nullptr;) {
+    channels.push_back(e->channel);
+    EXPECT_EQ(e->datalen, 40 + (channels.back().back() - '0'));
+  }
+  std::fclose(file);
+  EXPECT_EQ(channels, (std::vector<std::string>{"CHANNEL_0", "CHANNEL_1", "CHANNEL_3", "CHANNEL_4"}));
+  const std::vector<node::LogDamage>& damage = reader.damage();
+  ASSERT_EQ(damage.size(), 3u);
+  EXPECT_EQ(damage[0].offset, d.garbage_at);
+  EXPECT_EQ(damage[0].bytes, 37);
+  EXPECT_FALSE(damage[0].at_end);
+  EXPECT_EQ(damage[1].offset, d.bad_header_at);
+  EXPECT_EQ(damage[1].bytes, static_cast<std::int64_t>(d.event[2].size()));
+  EXPECT_EQ(damage[2].offset, d.cut_at);
+  EXPECT_EQ(damage[2].bytes, static_cast<std::int64_t>(d.event[5].size()) - 10);
+  EXPECT_TRUE(damage[2].at_end && damage[2].cut_short);
+  EXPECT_EQ(node::describe(damage[0]),
+            "bytes " + std::to_string(d.garbage_at) + ".." + std::to_string(d.garbage_at + 36) +
+                " (37) are not an event (damage, or another file's bytes): skipped to the next whole event");
+  EXPECT_NE(node::describe(damage[2]).find("cut short"), std::string::npos);
+}
+
+TEST_F(Logmend, MendsADamagedLogIntoAWholeOne) {
+  const DamagedLog d = damagedLog(path("event.lcmlog"));
+  std::ofstream(path("damaged.lcmlog"), std::ios::binary) << d.bytes;
+  // LCM's own reader, which lcm-logplayer plays with, stops at the first damage (LCM 1.3: at the
+  // bytes after event 0, losing event 0 too).
+  EXPECT_LT(eventTimes(path("damaged.lcmlog")).size(), 4u);
+  std::string out;
+  ASSERT_EQ(run({path("damaged.lcmlog"), path("mended.lcmlog")}, &out), 0) << out;
+  EXPECT_NE(out.find("4 events, 0 steps of the clock taken out, 3 damaged stretches left out"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("are an event cut short at the end of the log"), std::string::npos) << out;
+  lcm::LogFile mended(path("mended.lcmlog"), "r");
+  std::vector<std::string> channels;
+  for (const lcm::LogEvent* e; (e = mended.readNextEvent()) != nullptr;) {
+    channels.push_back(e->channel);
+    const int i = e->channel.back() - '0';
+    EXPECT_EQ(e->timestamp, 1'795'000'000'000'000 + i);
+    EXPECT_EQ(std::string(static_cast<const char*>(e->data), static_cast<std::size_t>(e->datalen)),
+              std::string(static_cast<std::size_t>(40 + i), static_cast<char>(i)));
+  }
+  EXPECT_EQ(channels, (std::vector<std::string>{"CHANNEL_0", "CHANNEL_1", "CHANNEL_3", "CHANNEL_4"}));
+
+  const std::string stl = "solid part\nendsolid part\n";
+  std::ofstream(path("not_a_log.stl"), std::ios::binary) << stl;
+  EXPECT_EQ(run({path("not_a_log.stl"), path("mended2.lcmlog")}, &out), 2);
+  EXPECT_NE(out.find("is not an LCM log: none of its " + std::to_string(stl.size()) + " bytes is an event"),
+            std::string::npos)
+      << out;
 }
 
 TEST(LegacyTypes, RobotStateV1HasTheFingerprintOfTheLayoutBeforeMeasured) {

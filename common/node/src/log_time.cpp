@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <stdexcept>
 
@@ -102,11 +101,10 @@ LogTimes mendTimes(const std::vector<std::int64_t>& recorded, const std::vector<
 }
 
 LogTimes mendLogTimes(const std::string& path, const std::string& heartbeat_channel) {
-  lcm::LogFile log(path, "r");
-  if (!log.good()) throw std::runtime_error("cannot read LCM log '" + path + "'");
+  LogReader log(path);
   std::vector<std::int64_t> recorded;
   std::vector<HeartbeatMark> heartbeats;
-  for (const lcm::LogEvent* e; (e = log.readNextEvent()) != nullptr;) {
+  for (const lcm::LogEvent* e; (e = log.next()) != nullptr;) {
     if (e->channel == heartbeat_channel) {
       heartbeat_t h;
       try {  // garbage can make the generated decoder throw (a string length beyond the message)
@@ -119,7 +117,9 @@ LogTimes mendLogTimes(const std::string& path, const std::string& heartbeat_chan
     }
     recorded.push_back(e->timestamp);
   }
-  return mendTimes(recorded, heartbeats);
+  LogTimes times = mendTimes(recorded, heartbeats);
+  times.damage = log.damage();
+  return times;
 }
 
 }  // namespace depowder::node

@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "depowder/node/log_reader.hpp"
+
 namespace depowder::node {
 
 /// A heartbeat in the log: its event's index, its process (process, host and pid: a restarted
@@ -50,6 +52,7 @@ inline constexpr std::int64_t kLogStepTolerance = 250'000;
 struct LogTimes {
   std::vector<std::int64_t> utime;  ///< each event's time, mended
   std::vector<LogGap> gaps;         ///< in order
+  std::vector<LogDamage> damage;    ///< mendLogTimes: the log's damaged stretches (log_reader.hpp)
   std::size_t steps() const;        ///< how many gaps were mended
   /// One line on `gap`: what it was, where (seconds into the log) and what was done.
   std::string describe(const LogGap& gap) const;
@@ -62,8 +65,9 @@ struct LogTimes {
 /// their gaps, so a log without a step keeps its times exactly.
 LogTimes mendTimes(const std::vector<std::int64_t>& recorded, const std::vector<HeartbeatMark>& heartbeats);
 
-/// The same for the log at `path` (its heartbeats on `heartbeat_channel`); throws if it cannot be
-/// read. Heartbeats without uptime_s (recorded before it was sent) tell nothing.
+/// The same for the log at `path` (its heartbeats on `heartbeat_channel`), read with LogReader (a
+/// damaged stretch is skipped and named in `damage`); throws if it cannot be read. Heartbeats
+/// without uptime_s (recorded before it was sent) tell nothing.
 LogTimes mendLogTimes(const std::string& path, const std::string& heartbeat_channel = "HEARTBEAT");
 
 }  // namespace depowder::node
