@@ -123,7 +123,8 @@ int main(int argc, char** argv) {
                                " bytes is an event");
     for (const node::LogGap& gap : times.gaps) std::cout << times.describe(gap) << "\n";
     for (const node::LogDamage& d : times.damage) std::cout << node::describe(d) << "\n";
-    std::cout << times.utime.size() << " events, " << times.steps() << " steps of the clock taken out";
+    std::cout << times.utime.size() << " events, " << times.steps() << (times.steps() == 1 ? " step" : " steps")
+              << " of the clock taken out";
     if (!times.damage.empty())
       std::cout << ", " << times.damage.size() << (times.damage.size() == 1 ? " damaged stretch" : " damaged stretches")
                 << (out.empty() ? "" : " left out (every whole event is written)");

@@ -297,6 +297,24 @@ TEST(LogReader, GoesOnPastDamageAndNamesEveryByteItLeftOut) {
   EXPECT_NE(node::describe(damage[2]).find("cut short"), std::string::npos);
 }
 
+TEST(LogReader, TakesTheEventsALoggerRestartedMidWriteAppended) {
+  // lcm-logger killed 30 bytes into event 1, restarted by the launcher with --append: events 2
+  // and 3 follow the cut. Event 1's header claims their bytes; they must still be read.
+  const DamagedLog d = damagedLog(testing::TempDir() + "log_reader_restart.lcmlog");
+  std::string bytes = d.event[0] + d.event[1].substr(0, 30) + d.event[2] + d.event[3];
+  std::FILE* file = fmemopen(bytes.data(), bytes.size(), "rb");
+  ASSERT_NE(file, nullptr);
+  node::LogReader reader(file);
+  std::vector<std::string> channels;
+  for (const lcm::LogEvent* e; (e = reader.next()) != nullptr;) channels.push_back(e->channel);
+  std::fclose(file);
+  EXPECT_EQ(channels, (std::vector<std::string>{"CHANNEL_0", "CHANNEL_2", "CHANNEL_3"}));
+  ASSERT_EQ(reader.damage().size(), 1u);
+  EXPECT_EQ(reader.damage()[0].offset, static_cast<std::int64_t>(d.event[0].size()));
+  EXPECT_EQ(reader.damage()[0].bytes, 30);
+  EXPECT_FALSE(reader.damage()[0].at_end);
+}
+
 TEST_F(Logmend, MendsADamagedLogIntoAWholeOne) {
   const DamagedLog d = damagedLog(path("event.lcmlog"));
   std::ofstream(path("damaged.lcmlog"), std::ios::binary) << d.bytes;

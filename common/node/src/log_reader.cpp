@@ -92,6 +92,13 @@ const lcm::LogEvent* LogReader::next() {
       continue;  // no channel name holds a control character: these bytes are not a header
     data_.resize(static_cast<std::size_t>(data_bytes));
     if (!readAt(at + kHeader + channel_bytes, data_.data(), data_.size())) continue;
+    // An event cut short and then written after (a logger restarted with --append) claims the
+    // next events' bytes: it does not end where the log does or another event begins, and one
+    // begins inside it. It is damage, and the search for those events goes on from inside it.
+    std::array<std::uint8_t, 4> after{};
+    if (end < size() && !(readAt(end, after.data(), after.size()) && after == kSync) &&
+        std::search(data_.begin(), data_.end(), kSync.begin(), kSync.end()) != data_.end())
+      continue;
 
     skipped(at, false);
     good_end_ = pos_ = end;

@@ -6,9 +6,10 @@
 // another, which lose that event too ("Invalid header after log data" on stderr). lcm-logplayer
 // and every tool on it then miss the rest of the recording. LogReader reads the same format
 // (lcm/eventlog.c: each event a big-endian sync word 0xEDA1DA01, event number, time, channel
-// length, data length, then the channel and the data), goes on past a damaged stretch to the
-// next whole event, and keeps where each stretch was, so that the tools can say what they left
-// out. Every byte of the log is either in an event read or in a stretch it names.
+// length, data length, then the channel and the data; an event that holds the start of another
+// and does not end where the log does or another begins was cut short and written after), goes
+// on past a damaged stretch to the next whole event, and keeps where each stretch was, so that the tools can say what
+// they left out. Every byte of the log is either in an event read or in a stretch it names.
 #pragma once
 
 #include <cstdint>
