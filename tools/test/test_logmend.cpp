@@ -343,6 +343,8 @@ TEST_F(Logmend, MendsADamagedLogIntoAWholeOne) {
   EXPECT_NE(out.find("is not an LCM log: none of its " + std::to_string(stl.size()) + " bytes is an event"),
             std::string::npos)
       << out;
+  EXPECT_EQ(run({tool_.dir(), path("mended3.lcmlog")}, &out), 2);
+  EXPECT_NE(out.find("cannot read LCM log '" + tool_.dir() + "': it is a directory"), std::string::npos) << out;
 }
 
 TEST(LegacyTypes, RobotStateV1HasTheFingerprintOfTheLayoutBeforeMeasured) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <filesystem>
 #include <stdexcept>
 
 namespace depowder::node {
@@ -21,6 +22,11 @@ std::uint64_t bigEndian(const std::uint8_t* p, int bytes) {
 
 LogReader::LogReader(const std::string& path) : file_(std::fopen(path.c_str(), "rb")), owned_(true) {
   if (file_ == nullptr) throw std::runtime_error("cannot read LCM log '" + path + "'");
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    std::fclose(file_);
+    throw std::runtime_error("cannot read LCM log '" + path + "': it is a directory");
+  }
   size_ = size();
 }
 
