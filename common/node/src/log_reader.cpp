@@ -102,7 +102,8 @@ const lcm::LogEvent* LogReader::next() {
     // next events' bytes: it does not end where the log does or another event begins, and one
     // begins inside it. It is damage, and the search for those events goes on from inside it.
     std::array<std::uint8_t, 4> after{};
-    if (end < size() && !(readAt(end, after.data(), after.size()) && after == kSync) &&
+    const bool at_log_end = end >= size_ && end >= size();
+    if (!at_log_end && !(readAt(end, after.data(), after.size()) && after == kSync) &&
         std::search(data_.begin(), data_.end(), kSync.begin(), kSync.end()) != data_.end())
       continue;
 
