@@ -79,6 +79,7 @@ TrackerNodeOptions readTrackerOptions(const node::CellConfig& cell) {
   filter.read("reset_frames", c.filter.reset_frames, 0, 1000);
   filter.read("check_every", c.filter.check_every, 1, 1000);
   filter.read("reset_inlier_margin", c.filter.reset_inlier_margin, 0.0, 1.0);
+  filter.read("reset_unexplained", c.filter.reset_unexplained, 0.0, 1.0);
   filter.finish();
   const node::YamlReader st = r.child("status");
   st.read("tracking_min_inlier_ratio", c.status.tracking_min_inlier_ratio, 0.0, 1.0);

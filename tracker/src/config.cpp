@@ -82,6 +82,7 @@ std::string validate(const TrackerConfig& c) {
   if (!(std::isfinite(c.filter.reset_inlier_margin) && c.filter.reset_inlier_margin >= 0 &&
         c.filter.reset_inlier_margin <= 1))
     return "filter.reset_inlier_margin must be in [0, 1]";
+  if (!fraction(c.filter.reset_unexplained)) return "filter.reset_unexplained must be in [0, 1]";
   if (!positive(c.filter.initial_deg) || !positive(c.filter.initial_m))
     return "filter.initial_deg and filter.initial_m must be > 0";
   if (!positive(c.icp.max_step_rotation)) return "icp.max_step_rotation must be > 0 rad";
@@ -140,6 +141,7 @@ void setField(TrackerConfig& config, const std::string& key, double value) {
                                               {"filter.reset_deg", &c.filter.reset_deg},
                                               {"filter.reset_m", &c.filter.reset_m},
                                               {"filter.reset_inlier_margin", &c.filter.reset_inlier_margin},
+                                              {"filter.reset_unexplained", &c.filter.reset_unexplained},
                                               {"progress.grid_cell", &c.progress.grid_cell},
                                               {"progress.contour_spacing", &c.progress.contour_spacing},
                                               {"progress.footprint_reuse", &c.progress.footprint_reuse}};

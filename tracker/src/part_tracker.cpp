@@ -116,7 +116,8 @@ PosePrior PartTracker::predicted() const {
 // - by what it asks of the pose in the ways a pushed part moves (weighed by what the scan sees
 //   against reset_frames frames of a pushed part's process noise: a tip is not asked for).
 // Both beyond their limits, and the free fits explaining the scan about as well as the filter's
-// over those frames (their mean inlier ratio at most reset_inlier_margin lower), the filter
+// over those frames (their mean inlier ratio at most reset_inlier_margin lower), and the move asked
+// explaining most of the difference (what it leaves at most reset_unexplained of its chi-square), the filter
 // starts again from its pose moved as this frame asks. (At the end of a push, the part against
 // the box wall, free fits disagreed with the filter while matching 0.60-0.67 of the template
 // points against its fit's 0.65-0.83, and a restart from them lost the cube: Table II, seed 2.
@@ -161,6 +162,12 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
   if (chi2 <= f.reset_chi2 ||
       (asked_mean.head<3>().norm() * 180 / M_PI <= f.reset_deg && asked_mean.tail<3>().norm() <= f.reset_m))
     return false;
+  // What the move asked leaves of the difference: a part the filter held still while it was pushed
+  // leaves little (the restarts that brought Table II's pushes back, 1 to 9 % of the chi-square); a
+  // biased free fit disagrees in ways no push moves the part and leaves most (a cube against the box
+  // wall, mostly buried, free fits 20 deg off in tilt: 80 to 98 %).
+  const Vector6d unexplained = mean - asked_mean;
+  if (n * unexplained.dot(uncertainty.ldlt().solve(unexplained)) > f.reset_unexplained * chi2) return false;
   T_cell_part_ = moved(filtered.T_target_source, ask.solve(seen * difference));
   information_ = loose + seen;
   disagreements_.clear();

@@ -812,6 +812,10 @@ TEST(PartTracker, ConstructorRejectsBadPartsAndConfigs) {
   margin.filter.reset_inlier_margin = std::nan("");
   EXPECT_NE(message([&] { PartTracker("cube", cube, Pose::Identity(), 0.01, margin); }).find("reset_inlier_margin"),
             std::string::npos);
+  TrackerConfig unexplained;
+  unexplained.filter.reset_unexplained = 1.5;
+  EXPECT_NE(message([&] { PartTracker("cube", cube, Pose::Identity(), 0.01, unexplained); }).find("reset_unexplained"),
+            std::string::npos);
   TrackerConfig fall;
   fall.filter.fall_tilt_deg = -1;
   EXPECT_NE(message([&] { PartTracker("cube", cube, Pose::Identity(), 0.01, fall); }).find("fall_tilt_deg"),

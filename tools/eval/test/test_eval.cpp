@@ -837,20 +837,28 @@ TEST(EvalMoving, ShortPushShapeAndBounds) {
 // free fits matched at least as many points (tracker/README.md, the filter, 4). In this test
 // cell the same seed's pushes end within 1.9 deg / 0.53 cm (without the inlier test the fifth
 // ends 4.8 deg / 1.16 cm off after such a restart).
+// The fourth push ends mostly buried against the wall too (eta 0.05-0.14), where free fits are
+// 20 deg off in tilt every frame: with a still part's turn noise of 0.0025 rather than 0.01 the
+// check restarted 16 times and the push ended 5.6 deg / 2.65 cm off, and at 0.001, 0.005, 0.0075
+// and 0.04 it failed as well. It now restarts only when the move asked explains most of the
+// difference (filter.reset_unexplained): no restart at either turn noise, both within the bounds.
 TEST(EvalMoving, CubeAtTheWallIsNotLostToARestart) {
-  const EvalCell cell = testCell();
-  MovingOptions o;
-  o.trials = 5;
-  o.seed = 2;
-  const MovingResult r = runMoving(cell, {defaultPart("cube")}, {tracker::Method::kCu}, o);
-  ASSERT_FALSE(r.interrupted);
-  ASSERT_EQ(r.rows.size(), 1u);
-  EXPECT_EQ(r.rows[0].success, 1.0);
-  for (std::size_t t = 0; t < r.rows[0].trial_final_rot_err_deg.size(); ++t) {
-    std::printf("cube push %zu: %.2f deg / %.2f cm\n", t + 1, r.rows[0].trial_final_rot_err_deg[t],
-                r.rows[0].trial_final_trans_err_cm[t]);
-    EXPECT_LT(r.rows[0].trial_final_rot_err_deg[t], 3.0) << "push " << t + 1;
-    EXPECT_LT(r.rows[0].trial_final_trans_err_cm[t], 0.8) << "push " << t + 1;
+  for (const double still_turn : {0.01, 0.0025}) {
+    EvalCell cell = testCell();
+    cell.tracker.filter.still_turn = still_turn;
+    MovingOptions o;
+    o.trials = 5;
+    o.seed = 2;
+    const MovingResult r = runMoving(cell, {defaultPart("cube")}, {tracker::Method::kCu}, o);
+    ASSERT_FALSE(r.interrupted);
+    ASSERT_EQ(r.rows.size(), 1u);
+    EXPECT_EQ(r.rows[0].success, 1.0) << "still_turn " << still_turn;
+    for (std::size_t t = 0; t < r.rows[0].trial_final_rot_err_deg.size(); ++t) {
+      std::printf("still_turn %.4f, cube push %zu: %.2f deg / %.2f cm\n", still_turn, t + 1,
+                  r.rows[0].trial_final_rot_err_deg[t], r.rows[0].trial_final_trans_err_cm[t]);
+      EXPECT_LT(r.rows[0].trial_final_rot_err_deg[t], 3.0) << "still_turn " << still_turn << ", push " << t + 1;
+      EXPECT_LT(r.rows[0].trial_final_trans_err_cm[t], 0.8) << "still_turn " << still_turn << ", push " << t + 1;
+    }
   }
 }
 

@@ -103,13 +103,16 @@ struct FilterConfig {
   /// against both fits' uncertainties (reset_chi2) and by what it asks of the pose in the ways a pushed part
   /// moves (turns about the vertical and slides, the process noise of the periods those runs span: beyond
   /// reset_deg or reset_m). Both beyond, and the free fits matching about as many template
-  /// points as the filter's (reset_inlier_margin): the filter held a moving part still, and starts
-  /// again from its pose moved as asked. reset_frames 0 = no check.
+  /// points as the filter's (reset_inlier_margin), and the move asked explaining most of the
+  /// difference (reset_unexplained): the filter held a moving part still, and starts again from its
+  /// pose moved as asked. reset_frames 0 = no check.
   double reset_chi2 = 300;            ///< chi-square of the mean difference, 6 dof (frames are not independent)
   double reset_deg = 4;               ///< deg
   double reset_m = 0.002;             ///< m
   double reset_inlier_margin = 0.02;  ///< and the free fits' mean inlier ratio is at most this below the filter's
                                       ///< (they explain the scan about as well); 1 = no such test
+  double reset_unexplained = 0.5;     ///< and what the move asked leaves of the mean difference has at most this
+                                      ///< fraction of its chi-square (the rest is no push's motion); 1 = no such test
   int reset_frames = 8;
   /// While the part is still and the last check's two fits agreed (within reset_deg / 2 and
   /// reset_m), the check runs every check_every-th frame only; otherwise every frame. 1 = always.
