@@ -86,7 +86,7 @@ struct FilterConfig {
   double q_tilt_deg = 0.01;    ///< deg per frame: of a tip about a horizontal axis
   double q_xy = 0.001;         ///< m per frame: of a horizontal slide
   double q_z = 0.0002;         ///< m per frame: of a rise or a sink
-  double still_turn = 0.01;    ///< a still part's turn noise: this fraction of q_yaw_deg and q_tilt_deg
+  double still_turn = 0.0025;  ///< a still part's turn noise: this fraction of q_yaw_deg and q_tilt_deg
   double moving_translation = 0.002;  ///< m: a part that moved more than this over the last moving_frames periods...
   double moving_rotation_deg = 2;     ///< ...or turned more than this (deg) is moving
   int moving_frames = 10;             ///< frame periods (1/3 s at 30 fps), however many were tracked
