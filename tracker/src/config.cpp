@@ -79,9 +79,7 @@ std::string validate(const TrackerConfig& c) {
     return "filter.reset_chi2, filter.reset_deg and filter.reset_m must be > 0";
   if (c.filter.reset_frames < 0) return "filter.reset_frames must be >= 0 (0 = no disagreement check)";
   if (c.filter.check_every < 1) return "filter.check_every must be >= 1 (1 = every frame)";
-  if (!(std::isfinite(c.filter.reset_inlier_margin) && c.filter.reset_inlier_margin >= 0 &&
-        c.filter.reset_inlier_margin <= 1))
-    return "filter.reset_inlier_margin must be in [0, 1]";
+  if (!fraction(c.filter.reset_inlier_margin)) return "filter.reset_inlier_margin must be in [0, 1]";
   if (!fraction(c.filter.reset_unexplained)) return "filter.reset_unexplained must be in [0, 1]";
   if (!positive(c.filter.initial_deg) || !positive(c.filter.initial_m))
     return "filter.initial_deg and filter.initial_m must be > 0";

@@ -154,7 +154,8 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
   Vector6d vague;
   vague << Eigen::Vector3d::Constant(1 / (M_PI * M_PI)), Eigen::Vector3d::Constant(1.0);
   const Matrix6d uncertainty = prior_information.inverse() + (seen + Matrix6d(vague.asDiagonal())).inverse();
-  const double chi2 = n * mean.dot(uncertainty.ldlt().solve(mean));
+  const Eigen::LDLT<Matrix6d> within(uncertainty);
+  const double chi2 = n * mean.dot(within.solve(mean));
   const Vector6d motion = periods * periods * processVariance();  // over the periods the checks span
   const Matrix6d loose = motion.cwiseInverse().asDiagonal();
   const Eigen::LDLT<Matrix6d> ask(loose + seen);
@@ -167,7 +168,7 @@ bool PartTracker::restartFilter(const RegistrationResult& filtered, const Regist
   // biased free fit disagrees in ways no push moves the part and leaves most (a cube against the box
   // wall, mostly buried, free fits 20 deg off in tilt: 80 to 98 %).
   const Vector6d unexplained = mean - asked_mean;
-  if (n * unexplained.dot(uncertainty.ldlt().solve(unexplained)) > f.reset_unexplained * chi2) return false;
+  if (n * unexplained.dot(within.solve(unexplained)) > f.reset_unexplained * chi2) return false;
   T_cell_part_ = moved(filtered.T_target_source, ask.solve(seen * difference));
   information_ = loose + seen;
   disagreements_.clear();
