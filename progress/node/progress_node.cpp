@@ -136,25 +136,24 @@ progress_t ProgressNode::process(Frame& frame, Part& part, const Pose* pose, con
 }
 
 void ProgressNode::flush(Frame& frame, std::vector<progress_t>& out) {
+  for (auto& [name, part] : parts_)
+    if (!frame.done[name]) out.push_back(processWithNearestPose(frame, part));
+}
+
+progress_t ProgressNode::processWithNearestPose(Frame& frame, Part& part) {
   const std::int64_t staleness_us = static_cast<std::int64_t>(options_.pose_staleness * 1e6);
-  for (auto& [name, part] : parts_) {
-    if (frame.done[name]) continue;
-    const PoseRecord* best = nullptr;
-    for (const PoseRecord& r : part.poses)  // the nearest in time within the staleness limit
-      if (std::llabs(r.utime - frame.utime) <= staleness_us &&
-          (!best || std::llabs(r.utime - frame.utime) < std::llabs(best->utime - frame.utime)))
-        best = &r;
-    if (best) {
-      out.push_back(
-          process(frame, part, &best->T_cell_part, best->utime == frame.utime ? "" : "pose from another frame"));
-    } else if (part.poses.empty() && options_.use_initial_pose && part.phase.phase() == Phase::kVacuumBuried) {
-      out.push_back(process(frame, part, &part.config.T_cell_part_init, "no PART_POSE yet: initial pose (phase 1)"));
-    } else {
-      out.push_back(process(frame, part, nullptr,
-                            part.poses.empty() ? "no valid PART_POSE received for this part"
-                                               : "no PART_POSE within pose_staleness of this frame"));
-    }
-  }
+  const PoseRecord* best = nullptr;
+  for (const PoseRecord& r : part.poses)  // the nearest in time within the staleness limit
+    if (std::llabs(r.utime - frame.utime) <= staleness_us &&
+        (!best || std::llabs(r.utime - frame.utime) < std::llabs(best->utime - frame.utime)))
+      best = &r;
+  if (best)
+    return process(frame, part, &best->T_cell_part, best->utime == frame.utime ? "" : "pose from another frame");
+  if (part.poses.empty() && options_.use_initial_pose && part.phase.phase() == Phase::kVacuumBuried)
+    return process(frame, part, &part.config.T_cell_part_init, "no PART_POSE yet: initial pose (phase 1)");
+  return process(frame, part, nullptr,
+                 part.poses.empty() ? "no valid PART_POSE received for this part"
+                                    : "no PART_POSE within pose_staleness of this frame");
 }
 
 std::vector<progress_t> ProgressNode::onPoints(std::int64_t utime, Cloud cloud, std::int64_t now_us) {
@@ -210,6 +209,11 @@ std::vector<progress_t> ProgressNode::onPose(const part_pose_t& msg) {
   }
   part.poses.push_back({msg.utime, *pose});
   while (part.poses.size() > 64) part.poses.pop_front();
+  // The tracker publishes a part's poses in utime order, and a frame it skipped (a newer one had
+  // arrived) gets none: frames before this one still waiting for this part's pose go out first,
+  // with the nearest pose, so that the part's PROGRESS and its eta filter stay in time order.
+  for (Frame& frame : pending_)
+    if (frame.utime < msg.utime && !frame.done[msg.part]) out.push_back(processWithNearestPose(frame, part));
   for (Frame& frame : pending_)
     if (frame.utime == msg.utime && !frame.done[msg.part]) out.push_back(process(frame, part, &*pose, ""));
   // Frames whose every part is done can go.

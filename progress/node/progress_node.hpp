@@ -4,7 +4,8 @@
 //
 // Pairing: the tracker publishes PART_POSE with the utime of the POINTS frame it
 // used, after it has processed that frame, so a frame waits up to `pose_wait` for
-// the pose with the same utime. Without one it uses the part's pose nearest in time
+// the pose with the same utime, or until a newer frame's pose comes (the tracker
+// skipped it: it tracks the newest frame). Without one it uses the part's pose nearest in time
 // if that is at most `pose_staleness` away from the frame; with no pose at all yet and the part
 // in phase 1, the initial pose (paper Sec. III-B: phase 1 assumes the part has not
 // moved); otherwise it publishes NO_POSE.
@@ -92,6 +93,9 @@ class ProgressNode {
   progress_t process(Frame& frame, Part& part, const Pose* pose, const std::string& pose_note);
   /// Processes every remaining part of `frame` with the best pose available now.
   void flush(Frame& frame, std::vector<progress_t>& out);
+  /// Processes one part of `frame` with its pose nearest in time (within pose_staleness), else
+  /// the initial pose in phase 1, else none (NO_POSE).
+  progress_t processWithNearestPose(Frame& frame, Part& part);
 
   ProgressNodeOptions options_;
   std::map<std::string, Part> parts_;

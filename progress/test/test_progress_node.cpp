@@ -144,11 +144,32 @@ TEST_F(NodeTest, AFrameTheTrackerSkippedUsesTheNearestPose) {
   const Pose later = makePoseRpy({0.01, 0, 0.05}, 0, 0, 0);
   n.onPose(poseMsg(0, kInit));
   n.onPoints(400'000, cubeScene(0.05, 0.01), 0);
-  EXPECT_TRUE(n.onPose(poseMsg(450'000, later)).empty());  // not this frame's pose
-  const auto out = n.poll(200'000);
+  const auto out = n.onPose(poseMsg(450'000, later));  // a newer frame's: this one was skipped
   ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].utime, 400'000);
   EXPECT_EQ(out[0].status, +progress_t::OK) << out[0].status_reason;
+  EXPECT_NE(out[0].status_reason.find("another frame"), std::string::npos);
   EXPECT_NEAR(out[0].T_cell_part.position[0], 0.01, 1e-9);  // 50 ms away, not 400 ms
+  EXPECT_TRUE(n.poll(10'000'000).empty());
+}
+
+// Under load the tracker skips frames (it tracks the newest); their PROGRESS still goes out in
+// time order, before the newer frame's, and not pose_wait later (the planner refuses a PROGRESS
+// older than the last one; the eta filter would take the old frame after the new).
+TEST_F(NodeTest, SkippedFramesGoOutInTimeOrder) {
+  ProgressNode n(cell_, options_);
+  for (const std::int64_t u : {1000, 34'000, 67'000, 100'000}) EXPECT_TRUE(n.onPoints(u, cubeScene(0.05), 0).empty());
+  auto out = n.onPose(poseMsg(1000, kInit));
+  ASSERT_EQ(out.size(), 1u);
+  out = n.onPose(poseMsg(100'000, kInit));  // 34000 and 67000 skipped
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[0].utime, 34'000);
+  EXPECT_EQ(out[1].utime, 67'000);
+  EXPECT_EQ(out[2].utime, 100'000);
+  for (const progress_t& m : out) EXPECT_EQ(m.status, +progress_t::OK) << m.status_reason;
+  EXPECT_EQ(out[2].status_reason, "");
+  EXPECT_TRUE(n.poll(10'000'000).empty());
+  EXPECT_EQ(n.stats().estimates, 4);
 }
 
 // A PART_POSE published twice, or a POINTS frame received twice: each (frame, part) is
