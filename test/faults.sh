@@ -1,7 +1,8 @@
 #!/bin/sh
 # Fault tests: the cell keeps working and the arm never moves unsafely. Each runs the default
-# cell (config/cell.yaml) in its own network namespaces (test/netns-hosts), injects one fault,
-# records the run with lcm-logger and lets fault_probe measure and check it:
+# cell (config/cell.yaml; but for camera_silent dug to 60 % at the start, below) in its own
+# network namespaces (test/netns-hosts), injects one fault, records the run with lcm-logger and
+# lets fault_probe measure and check it:
 #   tracker_killed   SIGKILL the tracker mid-run: the launcher restarts it, it resumes from its
 #                    last pose (--state), the planner holds meanwhile; the run completes
 #   link_cut         three hosts; the robot host's LAN cable is pulled for 8 s while its own
@@ -49,11 +50,22 @@ trap cleanup EXIT
 on() { i=$1; shift; "$H" exec $T "$i" "$@"; }
 now() { date +%s%6N; }
 
-# The cell: the default one with absolute mesh paths, plus the fault's sim.faults entry.
+# The cell: the default one with absolute mesh paths, plus the fault's sim.faults entry. But for
+# camera_silent, the simulator digs the pipe to 60 % true progress before the first frame
+# (sim.visibility): the part is tracked from the start and the run takes about 80 s rather than
+# the default's 185 (phase 1's 40 s and the first 70 s of phase 2 left out); every fault still
+# falls in phase 2, vacuuming, and the runs that must finish the part go on through phase 3, the
+# air blast, to done. camera_silent keeps the default cell and its fault at 70 s: dug so, with LEFT
+# silent from 15 s, the estimate rose 1 cm while the nozzle hid the pipe from RIGHT (worst 10.5
+# to 11.0 mm in five runs, of the 15 allowed; README, Faults).
 sed -e "s#mesh: parts/#mesh: $SRC/config/parts/#" "$SRC/config/cell.yaml" > cell.yaml
+if [ "$FAULT" != camera_silent ]; then
+  sed -i 's/^  visibility: {}.*/  visibility: {part: pipe, eta: 0.6}/' cell.yaml
+  grep -q '^  visibility: {part: pipe, eta: 0.6}' cell.yaml || { echo "FAILED: no sim.visibility in config/cell.yaml"; exit 1; }
+fi
 case $FAULT in
 camera_silent)   sed -i '/^sim:/a\  faults: [{at: 70, silence_camera: LEFT, duration: 20}]' cell.yaml ;;
-controller_drop) sed -i '/^sim:/a\  faults: [{at: 70, drop_controller: true}]' cell.yaml ;;
+controller_drop) sed -i '/^sim:/a\  faults: [{at: 15, drop_controller: true}]' cell.yaml ;;
 link_cut)  # the controller (the emulator in the sim, host 1) on its own cable to the robot host
   "$H" link $T 1 3
   sed -i -e "s#^    host: 127.0.0.1 .*#    host: $("$H" linkip $T 1)#" \
@@ -157,6 +169,7 @@ link_cut)
 estop)
   wait_for vacuum
   sleep 2
+  wait_for vacuum  # again: the dug pipe's contour loops switch the vacuum off between levels
   at=$(now); on 1 "$BIN/depowder-estop" stop --reason "fault test"
   sleep 3
   on 1 "$BIN/depowder-estop" reset --reason "fault test"
@@ -180,7 +193,7 @@ clock_step)
   until_opt="--until $until --step -3600"
   wait_run ;;
 camera_silent | controller_drop)
-  # sim.faults at t = 70 s; 20 s of it, then 10 s more.
+  # sim.faults at t = 70 s (camera_silent) or 15 s (controller_drop); 20 s of it, then 10 s more.
   wait_for tracking
   while [ -z "$(sim_utime fault)" ]; do sleep 1; done
   at=$(sim_utime fault)
