@@ -56,8 +56,8 @@ now() { date +%s%6N; }
 # the default's 185 (phase 1's 40 s and the first 70 s of phase 2 left out); every fault still
 # falls in phase 2, vacuuming, and the runs that must finish the part go on through phase 3, the
 # air blast, to done. camera_silent keeps the default cell and its fault at 70 s: dug so, with LEFT
-# silent from 15 s, the estimate rose 1 cm while the nozzle hid the pipe from RIGHT (worst 10.5
-# to 11.0 mm in five runs, of the 15 allowed; README, Faults).
+# silent from 15 s, the estimate rose up to 1 cm on RIGHT alone (worst 6.9
+# to 11.0 mm in six runs, of the 15 allowed; README, Faults).
 sed -e "s#mesh: parts/#mesh: $SRC/config/parts/#" "$SRC/config/cell.yaml" > cell.yaml
 if [ "$FAULT" != camera_silent ]; then
   sed -i 's/^  visibility: {}.*/  visibility: {part: pipe, eta: 0.6}/' cell.yaml
