@@ -1,6 +1,6 @@
 #!/bin/sh
 # Fault tests: the cell keeps working and the arm never moves unsafely. Each runs the default
-# cell (config/cell.yaml; but for camera_silent dug to 60 % at the start, below) in its own
+# cell (config/cell.yaml, its pipe dug to 60 % at the start but for camera_silent: below) in its own
 # network namespaces (test/netns-hosts), injects one fault, records the run with lcm-logger and
 # lets fault_probe measure and check it:
 #   tracker_killed   SIGKILL the tracker mid-run: the launcher restarts it, it resumes from its
@@ -50,8 +50,8 @@ trap cleanup EXIT
 on() { i=$1; shift; "$H" exec $T "$i" "$@"; }
 now() { date +%s%6N; }
 
-# The cell: the default one with absolute mesh paths, plus the fault's sim.faults entry. But for
-# camera_silent, the simulator digs the pipe to 60 % true progress before the first frame
+# The cell: the default one with absolute mesh paths, plus the fault's sim.faults entry. For all
+# but camera_silent, the simulator digs the pipe to 60 % true progress before the first frame
 # (sim.visibility): the part is tracked from the start and the run takes about 80 s rather than
 # the default's 185 (phase 1's 40 s and the first 70 s of phase 2 left out); every fault still
 # falls in phase 2, vacuuming, and the runs that must finish the part go on through phase 3, the

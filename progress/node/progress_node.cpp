@@ -210,12 +210,11 @@ std::vector<progress_t> ProgressNode::onPose(const part_pose_t& msg) {
   part.poses.push_back({msg.utime, *pose});
   while (part.poses.size() > 64) part.poses.pop_front();
   // The tracker publishes a part's poses in utime order, and a frame it skipped (a newer one had
-  // arrived) gets none: frames before this one still waiting for this part's pose go out first,
-  // with the nearest pose, so that the part's PROGRESS and its eta filter stay in time order.
+  // arrived) gets none: every waiting frame up to this pose's goes out now, in order, with its
+  // nearest pose (this one for the frame of its utime), so that the part's PROGRESS and its eta
+  // filter stay in time order.
   for (Frame& frame : pending_)
-    if (frame.utime < msg.utime && !frame.done[msg.part]) out.push_back(processWithNearestPose(frame, part));
-  for (Frame& frame : pending_)
-    if (frame.utime == msg.utime && !frame.done[msg.part]) out.push_back(process(frame, part, &*pose, ""));
+    if (frame.utime <= msg.utime && !frame.done[msg.part]) out.push_back(processWithNearestPose(frame, part));
   // Frames whose every part is done can go.
   while (!pending_.empty()) {
     bool all = true;
