@@ -398,7 +398,10 @@ bool Driver::slaveCycle() {
   status_.waypoint_index = sample.waypoint_index;
   status_.plan_utime = plan_utime;
   status_.follow_lag_s = follow_lag_s_;
-  if (safety_stopped_) {
+  if (estop_latched_ || estop_events_.load() != estop_seen_) {
+    // An ESTOP came during this exchange: estop() has reported it; the next cycle switches the
+    // motor off. Reporting FOLLOWING meanwhile would say the arm moves on.
+  } else if (safety_stopped_) {
     status_.mode = sample.moving ? DriverMode::Following : DriverMode::Holding;
   } else if (sample.moving || (have_plan_ && !generator_.finished())) {
     status_.mode = DriverMode::Following;

@@ -71,6 +71,10 @@ class Rig {
     driver_->setExchangeHook([this](std::int64_t) {
       std::lock_guard<std::mutex> lock(m_);
       trace_.push_back(emu_->joints().q);
+      if (estop_in_exchange_) {
+        driver_->estop(true, "during an exchange");
+        estop_in_exchange_ = false;  // estop() has returned
+      }
     });
     driver_->plannerHeartbeat();
     loop_ = std::thread([this] { driver_->run(stop_); });
@@ -124,6 +128,7 @@ class Rig {
   std::atomic<bool> heartbeats_{true};
   std::atomic<std::chrono::steady_clock::time_point> last_heartbeat_{};
   std::atomic<std::int64_t> wall_offset_us_{0};
+  std::atomic<bool> estop_in_exchange_{false};  ///< ESTOP from the next exchange's end
   bool atNozzle(const Eigen::Vector3d& p, double tol = 1e-9) {
     return (forwardNozzle(cfg_.arm, emu_->joints().q).translation() - p).norm() < tol;
   }
@@ -409,6 +414,26 @@ TEST(DriverEmulator, EstopHaltsAtOnceAndNeedsAReset) {
   ASSERT_TRUE(rig.driver().submitPlan(linePlan(3, {{0.0, 0.0, 0.2}}, 0.2)).accepted);
   ASSERT_TRUE(rig.waitFor([&] { return (emuNozzle(rig) - Eigen::Vector3d(0, 0, 0.2)).norm() < 1e-9; }, 5.0));
   EXPECT_EQ(rig.emu().stats().speed_errors, 0);
+}
+
+// An ESTOP that comes while the loop is between its exchange and its status (a button pressed at
+// any moment) is reported at once and stays reported: the status never goes back to FOLLOWING.
+TEST(DriverEmulator, AnEstopDuringAnExchangeIsReportedAtOnce) {
+  Rig rig;
+  ASSERT_TRUE(rig.waitMode(DriverMode::Idle, 3.0));
+  ASSERT_TRUE(rig.driver().submitPlan(linePlan(1, {{0.0, 0.0, 0.3}, {0.15, 0.1, 0.1}}, 0.1)).accepted);
+  ASSERT_TRUE(rig.waitMode(DriverMode::Following, 1.0));
+  rig.estop_in_exchange_ = true;
+  // Watched without a pause from the ESTOP until the loop has switched the motor off, and some
+  // cycles more: before the fix, the status said FOLLOWING from that exchange's end until then.
+  int other = 0;
+  const auto end = std::chrono::steady_clock::now() + 200ms;
+  while (std::chrono::steady_clock::now() < end)
+    if (!rig.estop_in_exchange_ && rig.driver().status().mode != DriverMode::EStopped) ++other;
+  ASSERT_FALSE(rig.estop_in_exchange_) << "no exchange in 200 ms";
+  EXPECT_EQ(other, 0) << "polls that saw a mode other than ESTOPPED";
+  EXPECT_FALSE(rig.emu().joints().motor_on);
+  EXPECT_EQ(rig.driver().status().mode, DriverMode::EStopped);
 }
 
 // A reset that cannot re-enable (the arm was moved outside the configured limits while stopped)
