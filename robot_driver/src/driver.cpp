@@ -136,6 +136,8 @@ DriverStatus Driver::status() const {
 }
 
 void Driver::setMode(DriverMode m, const std::string& reason) {
+  // estop() has reported ESTOPPED: an enable or a plan taken meanwhile does not report otherwise.
+  if ((m == DriverMode::Idle || m == DriverMode::Following) && estopPending()) return;
   std::lock_guard<PiMutex> lock(mutex_);
   status_.mode = m;
   status_.reason = reason;
@@ -398,7 +400,7 @@ bool Driver::slaveCycle() {
   status_.waypoint_index = sample.waypoint_index;
   status_.plan_utime = plan_utime;
   status_.follow_lag_s = follow_lag_s_;
-  if (estop_latched_ || estop_events_.load() != estop_seen_) {
+  if (estopPending()) {
     // An ESTOP came during this exchange: estop() has reported it; the next cycle switches the
     // motor off. Reporting FOLLOWING meanwhile would say the arm moves on.
   } else if (safety_stopped_) {

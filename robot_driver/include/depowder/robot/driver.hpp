@@ -120,6 +120,8 @@ class Driver {
   bool connectAndEnable();
   bool enableFromCurrentPosition();
   void setMode(DriverMode m, const std::string& reason);
+  /// An ESTOP is latched, or pressed and not yet handled by the loop (the loop thread only).
+  bool estopPending() const { return estop_latched_ || estop_events_.load() != estop_seen_; }
   bool slaveCycle();
   /// follow_lag_s_ from this cycle's command and the position its reply carried.
   void updateFollowLag(const Joints& command, const Joints& measured);
