@@ -52,6 +52,7 @@ struct CellPlanner::PartState {
   std::optional<Pose> still_pose;         ///< tracked pose the part has kept within the moving thresholds...
   std::int64_t still_utime = -1;          ///< ...since this frame, at most settle_s ago
   std::int64_t moved_utime = -1;          ///< the last frame it moved at (-1: not since tracking began)
+  std::int64_t tracked_utime = -1;        ///< the last frame its pose was measured at (a PART_POSE not LOST)
 };
 
 namespace {
@@ -114,6 +115,7 @@ InputResult CellPlanner::onPose(const PoseInput& in, std::int64_t arrival) {
   if (s.pose && in.utime < s.pose->utime)
     return {InputStatus::kOutOfOrder, "PART_POSE of " + in.part + " is older than the last one"};
   s.pose = in;
+  if (in.status != TrackStatus::kLost) s.tracked_utime = in.utime;
   takeNewest(in.utime, arrival);
   // Motion watch (replan.settle_s) from the first tracked pose on: the jump from the printed pose
   // to the first ICP estimate is not a motion. The pose it is measured from is at most settle_s
@@ -248,7 +250,11 @@ void CellPlanner::updateWorld() {
     PartReport& r = reports_[i];
     r.phase = s.progress ? s.progress->phase : Phase::kNone;
     r.done = r.phase == Phase::kDone;
-    r.lost = s.pose && s.pose->status == TrackStatus::kLost;
+    // A LOST PART_POSE carries the last pose measured: like a missing one, that pose is used
+    // until it is stale_s behind the newest frame (the nozzle coming down beside a part hides it
+    // from one camera for a few frames), then the part is lost.
+    r.lost = s.pose && s.pose->status == TrackStatus::kLost &&
+             seconds(newest_utime_ - s.tracked_utime) > config_.replan.stale_s;
     if (r.lost) r.note = "skipped: lost" + (s.pose->status_reason.empty() ? "" : " (" + s.pose->status_reason + ")");
     // Phase 1 (and before any estimate): the part sits at its printed pose (paper Sec. III-B).
     const bool tracked = s.pose && r.phase != Phase::kNone && r.phase != Phase::kVacuumBuried;
