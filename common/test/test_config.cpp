@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 
 #include "depowder/node/cell.hpp"
 
@@ -124,6 +125,26 @@ TEST(Config, CellModelIdFollowsTheSharedSections) {
   EXPECT_NE(id, idOf("a/other.stl", "[0, 0, 0.05]"));
   EXPECT_NE(id, idOf("missing.stl", "[0, 0, 0.05]"));
   std::filesystem::remove_all(dir);
+}
+
+// A missing or broken mesh names the part it belongs to, and the file.
+TEST(Config, PartMeshErrorsNameThePart) {
+  const std::string parts = std::string(DEPOWDER_SOURCE_DIR) + "/config/parts/";
+  const std::string yaml =
+      "box: {size: [0.4, 0.3, 0.2]}\nparts:\n"
+      "  - {name: cube, mesh: PARTScube.stl, mesh_scale: 2}\n"
+      "  - {name: owl, mesh: PARTSno_such_owl.stl}\n";
+  const CellConfig cell = loadCellFromString(std::regex_replace(yaml, std::regex("PARTS"), parts));
+  const depowder::Mesh cube = loadPartMesh(cell.parts[0]), unit = depowder::loadMesh(parts + "cube.stl");
+  ASSERT_EQ(cube.vertices.size(), unit.vertices.size());
+  EXPECT_NEAR((cube.vertices[0] - 2 * unit.vertices[0]).norm(), 0, 1e-12);  // at the part's scale
+  try {
+    loadPartMesh(cell.parts[1]);
+    ADD_FAILURE() << "a missing mesh loaded";
+  } catch (const depowder::MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("part 'owl'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no_such_owl.stl"), std::string::npos) << e.what();
+  }
 }
 
 // The tool for the processes that draw or filter it: the planner's nozzle, grown to the flange at

@@ -13,7 +13,7 @@ namespace {
 std::vector<PartSpec> loadParts(const node::CellConfig& cell) {
   std::vector<PartSpec> parts;
   for (const node::PartConfig& p : cell.parts)
-    parts.push_back({std::make_shared<PartShape>(p.name, loadMesh(p.mesh, p.mesh_scale)), p.T_cell_part_init});
+    parts.push_back({std::make_shared<PartShape>(p.name, node::loadPartMesh(p)), p.T_cell_part_init});
   return parts;
 }
 

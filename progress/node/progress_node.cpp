@@ -58,7 +58,7 @@ ProgressNodeOptions readProgressOptions(const node::CellConfig& cell) {
 ProgressNode::ProgressNode(const node::CellConfig& cell, ProgressNodeOptions options) : options_(options) {
   for (const node::PartConfig& pc : cell.parts) {
     Part part{pc, {}, {}, EtaFilter(options_.filter), PhaseMachine(options_.phase)};
-    part.cad = sampleSurface(loadMesh(pc.mesh, pc.mesh_scale), options_.cad_spacing).points;
+    part.cad = sampleSurface(node::loadPartMesh(pc), options_.cad_spacing).points;
     parts_.emplace(pc.name, std::move(part));
   }
 }

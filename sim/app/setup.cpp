@@ -310,7 +310,7 @@ SimSetup cellSetup(const node::CellConfig& cell) {
   out.box.wall = cell.box.wall;
   for (const auto& c : cell.cameras) out.cameras.push_back(cameraModelOf(c));
   for (const auto& p : cell.parts)
-    out.parts.push_back({p.name, loadMesh(p.mesh, p.mesh_scale), p.T_cell_part_init, p.density});
+    out.parts.push_back({p.name, node::loadPartMesh(p), p.T_cell_part_init, p.density});
   return out;
 }
 

@@ -106,7 +106,7 @@ TrackerNode::TrackerNode(const node::CellConfig& cell, const TrackerNodeOptions&
     const auto saved = resume.find(p.name);  // a saved part the cell no longer has is dropped
     if (saved != resume.end()) last_poses_[p.name] = saved->second;
     const Pose& T_init = saved != resume.end() ? saved->second.T_cell_part : p.T_cell_part_init;
-    parts.emplace_back(p.name, loadMesh(p.mesh, p.mesh_scale), T_init, p.xi, options_.tracker);
+    parts.emplace_back(p.name, node::loadPartMesh(p), T_init, p.xi, options_.tracker);
     if (saved != resume.end()) parts.back().resume();  // only parts past Phase 1 are saved
   }
   trackers_ = std::make_unique<MultiTracker>(std::move(parts), options_.threads);

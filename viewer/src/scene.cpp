@@ -39,7 +39,7 @@ Scene sceneFromCell(const node::CellConfig& cell) {
   scene.box_size = cell.box.size;
   for (const node::PartConfig& pc : cell.parts) {
     PartScene& p = scene.part(pc.name);
-    p.mesh = std::make_shared<const Mesh>(loadMesh(pc.mesh, pc.mesh_scale));
+    p.mesh = std::make_shared<const Mesh>(node::loadPartMesh(pc));
     p.T_cell_part = pc.T_cell_part_init;  // drawn only once the tracker has spoken
   }
   scene.tool_mesh = std::make_shared<const Mesh>(toolOfCell(cell));

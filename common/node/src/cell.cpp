@@ -111,6 +111,14 @@ CellConfig loadCellFromString(const std::string& text, const std::string& file) 
   return readCell(YamlReader::loadString(text, file));
 }
 
+Mesh loadPartMesh(const PartConfig& part) {
+  try {
+    return loadMesh(part.mesh, part.mesh_scale);
+  } catch (const MeshError& e) {
+    throw MeshError("part '" + part.name + "': " + e.what());
+  }
+}
+
 void readEffector(const YamlReader& section, const std::string& key, std::vector<EffectorSection>& value) {
   // items() first: it marks the key as read, so a null `effector:` is not an unknown key.
   const std::vector<YamlReader> items = section.items(key);

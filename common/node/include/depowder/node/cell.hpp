@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "depowder/geometry.hpp"
+#include "depowder/mesh.hpp"
 #include "depowder/node/yaml.hpp"
 #include "depowder/tool.hpp"
 
@@ -74,6 +75,10 @@ extern const std::vector<std::string> kModuleSections;
 /// Reads and validates the shared sections. Throws ConfigError naming file, key and range.
 CellConfig loadCell(const std::string& path);
 CellConfig loadCellFromString(const std::string& text, const std::string& file = "<string>");
+
+/// The part's mesh at its scale. Throws MeshError naming the part and the file (a cell of several
+/// parts says which one is missing or broken).
+Mesh loadPartMesh(const PartConfig& part);
 
 /// A digest of the sections the processes share (box, cameras, parts: their values, and each
 /// part's mesh file by its bytes), below 2^52: every process puts it in its heartbeat
