@@ -180,7 +180,7 @@ TEST(SimSetup, BadSimKeysNameTheFileTheKeyAndTheRange) {
   }
 }
 
-TEST(SimSetup, BrokenMeshNamesTheFile) {
+TEST(SimSetup, BrokenMeshNamesThePartAndTheFile) {
   const std::string garbage = write("broken.stl", "solid x\n facet normal 0 0 1\n  outer loop\n   vertex 0 0\n");
   const std::string cell = cellWithSim("broken_mesh.yaml", "  seed: 1\n", garbage);
   try {
@@ -188,6 +188,7 @@ TEST(SimSetup, BrokenMeshNamesTheFile) {
     ADD_FAILURE();
   } catch (const MeshError& e) {
     EXPECT_NE(std::string(e.what()).find(garbage), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("part 'cube'"), std::string::npos) << e.what();
   }
   const std::string missing = cellWithSim("missing_mesh.yaml", "  seed: 1\n", (scratch() / "nope.obj").string());
   EXPECT_THROW(loadSimSetup(missing), MeshError);
