@@ -47,8 +47,9 @@ struct CellPlanner::PartState {
   double powder = std::nan("");           ///< last h_pow from a progress message with a contour
   std::int64_t failed_utime = -1;         ///< newest input utime when planning last failed (retry after newer)
   bool blasting = false;                  ///< its air blast has begun (undercut done); until it leaves phase 3
-  double undercut_powder = std::nan("");  ///< h_pow when its last undercut loop was planned
-  int undercut_stalls = 0;                ///< undercut loops in a row that hardly lowered it
+  double undercut_mark = std::nan("");    ///< h_pow when the undercut last lowered it by half a layer...
+  std::int64_t undercut_mark_utime = -1;  ///< ...at this frame
+  double undercut_loop_s = 0;             ///< s its last undercut loop takes the nozzle (0: none yet)
   std::optional<Pose> still_pose;         ///< tracked pose the part has kept within the moving thresholds...
   std::int64_t still_utime = -1;          ///< ...since this frame, at most settle_s ago
   std::int64_t moved_utime = -1;          ///< the last frame it moved at (-1: not since tracking began)
@@ -59,6 +60,17 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 double seconds(std::int64_t us) { return static_cast<double>(us) * 1e-6; }
+
+/// The time the nozzle's tip takes along the waypoints at their speeds (a lower bound: the driver
+/// may go slower where the joints limit it).
+double travelSeconds(const std::vector<Waypoint>& waypoints) {
+  double t = 0;
+  for (std::size_t i = 1; i < waypoints.size(); ++i)
+    if (waypoints[i].speed > 0)
+      t += (waypoints[i].T_cell_nozzle.translation() - waypoints[i - 1].T_cell_nozzle.translation()).norm() /
+           waypoints[i].speed;
+  return t;
+}
 
 /// An input stamped outside the utimes taken (depowder/clock.hpp): every time the planner keeps is
 /// a difference of two of them.
@@ -478,27 +490,30 @@ std::optional<Plan> CellPlanner::step() {
     //     it goes on (the measured height hovers about the threshold) until phase 3 ends. Loops
     //     that no longer lower it (the nozzle cannot reach all round a toppled part: the measured
     //     height stayed a few mm over the threshold for good, and the air blast never began) give
-    //     way to the air blast after kUndercutStalls in a row, each less than half a layer lower.
+    //     way to the air blast once it has fallen less than half a layer in the time
+    //     kUndercutStalls loops take. Timed, not counted: on a toppled part the loops are planned
+    //     anew for a jittering pose before they end, and a run went 175 s with 4 loops ended.
     constexpr int kUndercutStalls = 3;
+    bool undercutting = false;
     if (phase != Phase::kAirBlast) {
       s.blasting = false;
-      s.undercut_powder = std::nan("");
-      s.undercut_stalls = 0;
+      s.undercut_mark = std::nan("");
     }
     if (phase == Phase::kAirBlast && !s.blasting && config_.vacuum.undercut > 0 && std::isfinite(s.powder) &&
         s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth) {
-      if (!continuing) {  // a new loop is due: did the last one lower the powder?
-        const bool stalled = s.powder > s.undercut_powder - 0.5 * config_.vacuum.layer_depth;
-        s.undercut_stalls = stalled ? s.undercut_stalls + 1 : 0;
-        s.undercut_powder = s.powder;
+      if (!(s.powder >= s.undercut_mark - 0.5 * config_.vacuum.layer_depth)) {  // the first, or half a layer lower
+        s.undercut_mark = s.powder;
+        s.undercut_mark_utime = progress.utime;
       }
-      if (s.undercut_stalls < kUndercutStalls) {
+      const double stalled_s = seconds(progress.utime - s.undercut_mark_utime);
+      if (s.undercut_loop_s <= 0 || stalled_s <= kUndercutStalls * s.undercut_loop_s) {
         phase = Phase::kVacuumTracked;
+        undercutting = true;
       } else {
-        char buf[160];
+        char buf[200];
         std::snprintf(buf, sizeof buf,
-                      "; undercut ended: %d loops lowered the powder by under %.1f mm each (at %.3f m)",
-                      kUndercutStalls, 500 * config_.vacuum.layer_depth, s.powder);
+                      "; undercut ended: the powder fell less than %.1f mm in %.0f s, the time of %d loops (at %.3f m)",
+                      500 * config_.vacuum.layer_depth, stalled_s, kUndercutStalls, s.powder);
         undercut_ended = buf;
       }
     }
@@ -559,6 +574,7 @@ std::optional<Plan> CellPlanner::step() {
       continue;
     }
     if (!same) ++report.cycles;
+    if (undercutting && !same) s.undercut_loop_s = travelSeconds(plan.waypoints);
     s.failed_utime = -1;
     if (phase == Phase::kAirBlast) s.blasting = true;
     report.note.clear();

@@ -227,28 +227,80 @@ TEST_F(CellTest, UndercutVacuumsBelowThePartBeforeTheAirBlast) {
   EXPECT_TRUE(withTool(*more, Tool::kVacuum).empty());
 }
 
+// The time the nozzle's tip takes along a plan at its waypoints' speeds.
+double travelSeconds(const Plan& plan) {
+  double t = 0;
+  for (std::size_t i = 1; i < plan.waypoints.size(); ++i)
+    if (plan.waypoints[i].speed > 0)
+      t += (plan.waypoints[i].T_cell_nozzle.translation() - plan.waypoints[i - 1].T_cell_nozzle.translation()).norm() /
+           plan.waypoints[i].speed;
+  return t;
+}
+
 // Undercut loops that no longer lower the powder (the nozzle cannot reach all round a toppled
-// part) give way to the air blast after three in a row; in the toppling-pipe cell the measured
-// height once stayed a few mm over the threshold for good, and the air blast never began.
+// part) give way to the air blast once it has fallen less than half a layer in three loops' time;
+// in the toppling-pipe cell the measured height once stayed a few mm over the threshold for good,
+// and the air blast never began.
 TEST_F(CellTest, UndercutThatNoLongerLowersThePowderGivesWayToTheAirBlast) {
   T_left = makePoseRpy({-0.08, 0.0, 0.06}, 0, 0, 0.1);  // floor 0.01 m, air blast from 0.015 m
   config.vacuum.undercut = 0.02;
   SetUp();
   std::optional<Plan> p;
-  // 30 mm, then 12 mm lower; then 1, -0.5 (higher) and 0.7 mm lower: three loops that stalled.
+  double loop_s = 0;
+  // 30 mm, then 12 mm lower; then 1, -0.5 (higher) and 0.7 mm lower, each loop a second longer
+  // than the nozzle's travel: the third of those ends the undercut.
   for (const double powder : {0.030, 0.018, 0.017, 0.0175, 0.0168}) {
     if (p) robotAt(*p, static_cast<int>(p->waypoints.size()));
-    utime += 33000;
+    utime += static_cast<std::int64_t>((loop_s + 1) * kSecond);
     frame("left", T_left, Phase::kAirBlast, powder);
     p = planner->step();
     ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
     if (powder != 0.0168) {
       EXPECT_EQ(p->phase, Phase::kVacuumTracked) << "at " << powder << ": " << p->reason;
+      loop_s = travelSeconds(*p);
+      EXPECT_GT(loop_s, 5) << p->reason;
     }
   }
   EXPECT_EQ(p->phase, Phase::kAirBlast) << p->reason;
   EXPECT_GT(withTool(*p, Tool::kAir).size(), 10u);
-  EXPECT_NE(p->reason.find("undercut ended: 3 loops"), std::string::npos) << p->reason;
+  EXPECT_NE(p->reason.find("undercut ended: the powder fell less than 2.5 mm in"), std::string::npos) << p->reason;
+}
+
+// On the toppled pipe the loops were planned anew for a jittering pose long before they ended
+// (in one run 4 loops ended in 175 s), and loops that were counted as they ended never gave way:
+// the undercut is timed. Here the pose moves every quarter loop and no loop ends; the powder falls
+// 0.6 mm a loop. The air blast begins once three loops' time has passed without half a layer.
+TEST_F(CellTest, UndercutLoopsPlannedAnewBeforeTheyEndAreTimed) {
+  T_left = makePoseRpy({-0.08, 0.0, 0.06}, 0, 0, 0.1);  // floor 0.01 m, air blast from 0.015 m
+  config.vacuum.undercut = 0.02;
+  SetUp();
+  double powder = 0.020;
+  frame("left", T_left, Phase::kAirBlast, powder);
+  std::optional<Plan> p = planner->step();
+  ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
+  ASSERT_EQ(p->phase, Phase::kVacuumTracked) << p->reason;
+  const double loop_s = travelSeconds(*p);
+  ASSERT_GT(loop_s, 5) << p->reason;
+  const std::int64_t start = utime;
+  Pose T = T_left;
+  for (int k = 1; k <= 16; ++k) {
+    robotAt(*p, static_cast<int>(p->waypoints.size() / 4));  // a quarter of the way round
+    utime += static_cast<std::int64_t>(loop_s / 4 * kSecond);
+    powder -= 0.00015;
+    T.translation().x() += (k % 2 ? 1 : -1) * 0.006;  // beyond replan.translation (5 mm)
+    frame("left", T, Phase::kAirBlast, powder);
+    p = planner->step();
+    ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
+    const double since = static_cast<double>(utime - start) / kSecond;
+    if (since <= 3 * loop_s - 1) {
+      EXPECT_EQ(p->phase, Phase::kVacuumTracked) << "after " << since << " s: " << p->reason;
+    } else if (since > 3 * loop_s + 1) {
+      EXPECT_EQ(p->phase, Phase::kAirBlast) << "after " << since << " s: " << p->reason;
+      break;
+    }
+  }
+  EXPECT_EQ(p->phase, Phase::kAirBlast) << p->reason;
+  EXPECT_NE(p->reason.find("undercut ended"), std::string::npos) << p->reason;
 }
 
 TEST_F(CellTest, MovedPartMovesThePathWithoutAJump) {
