@@ -61,17 +61,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 double seconds(std::int64_t us) { return static_cast<double>(us) * 1e-6; }
 
-/// The time the nozzle's tip takes along the waypoints at their speeds (a lower bound: the driver
-/// may go slower where the joints limit it).
-double travelSeconds(const std::vector<Waypoint>& waypoints) {
-  double t = 0;
-  for (std::size_t i = 1; i < waypoints.size(); ++i)
-    if (waypoints[i].speed > 0)
-      t += (waypoints[i].T_cell_nozzle.translation() - waypoints[i - 1].T_cell_nozzle.translation()).norm() /
-           waypoints[i].speed;
-  return t;
-}
-
 /// An input stamped outside the utimes taken (depowder/clock.hpp): every time the planner keeps is
 /// a difference of two of them.
 InputResult outOfRange(const std::string& what, std::int64_t utime) {

@@ -15,6 +15,15 @@ Waypoint atJoints(const robot::ArmConfig& arm, const robot::Joints& q, Tool tool
   return w;
 }
 
+double travelSeconds(const std::vector<Waypoint>& waypoints) {
+  double t = 0;
+  for (std::size_t i = 1; i < waypoints.size(); ++i)
+    if (waypoints[i].speed > 0)
+      t += (waypoints[i].T_cell_nozzle.translation() - waypoints[i - 1].T_cell_nozzle.translation()).norm() /
+           waypoints[i].speed;
+  return t;
+}
+
 Pose nozzleDown(const robot::ArmConfig& arm, const Point& tip) {
   Eigen::Vector3d x = tip - arm.T_cell_base.translation();
   x.z() = 0;

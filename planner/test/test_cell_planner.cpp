@@ -227,14 +227,16 @@ TEST_F(CellTest, UndercutVacuumsBelowThePartBeforeTheAirBlast) {
   EXPECT_TRUE(withTool(*more, Tool::kVacuum).empty());
 }
 
-// The time the nozzle's tip takes along a plan at its waypoints' speeds.
-double travelSeconds(const Plan& plan) {
-  double t = 0;
-  for (std::size_t i = 1; i < plan.waypoints.size(); ++i)
-    if (plan.waypoints[i].speed > 0)
-      t += (plan.waypoints[i].T_cell_nozzle.translation() - plan.waypoints[i - 1].T_cell_nozzle.translation()).norm() /
-           plan.waypoints[i].speed;
-  return t;
+// The tip's travel time: each waypoint reached at its own speed; a waypoint without one adds none.
+TEST(TravelSeconds, EachLegAtItsWaypointsSpeed) {
+  std::vector<Waypoint> w(4);
+  w[1].T_cell_nozzle.translation() = Point(0.1, 0, 0);  // 0.1 m at 0.05 m/s: 2 s
+  w[1].speed = 0.05;
+  w[2].T_cell_nozzle.translation() = Point(0.1, 0.3, 0.4);  // 0.5 m at 0.1 m/s: 5 s
+  w[2].speed = 0.1;
+  w[3].T_cell_nozzle.translation() = Point(1, 1, 1);  // no speed: not counted
+  EXPECT_NEAR(travelSeconds(w), 7.0, 1e-12);
+  EXPECT_EQ(travelSeconds({}), 0.0);
 }
 
 // Undercut loops that no longer lower the powder (the nozzle cannot reach all round a toppled
@@ -257,7 +259,7 @@ TEST_F(CellTest, UndercutThatNoLongerLowersThePowderGivesWayToTheAirBlast) {
     ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
     if (powder != 0.0168) {
       EXPECT_EQ(p->phase, Phase::kVacuumTracked) << "at " << powder << ": " << p->reason;
-      loop_s = travelSeconds(*p);
+      loop_s = travelSeconds(p->waypoints);
       EXPECT_GT(loop_s, 5) << p->reason;
     }
   }
@@ -279,7 +281,7 @@ TEST_F(CellTest, UndercutLoopsPlannedAnewBeforeTheyEndAreTimed) {
   std::optional<Plan> p = planner->step();
   ASSERT_TRUE(p && p->hasWaypoints()) << (p ? p->reason : "");
   ASSERT_EQ(p->phase, Phase::kVacuumTracked) << p->reason;
-  const double loop_s = travelSeconds(*p);
+  const double loop_s = travelSeconds(p->waypoints);
   ASSERT_GT(loop_s, 5) << p->reason;
   const std::int64_t start = utime;
   Pose T = T_left;

@@ -31,6 +31,10 @@ Pose nozzleDown(const robot::ArmConfig& arm, const Point& tip);
 /// The waypoint of the arm at joints `q` (its nozzle pose by forward kinematics).
 Waypoint atJoints(const robot::ArmConfig& arm, const robot::Joints& q, Tool tool = Tool::kOff, double speed = 0);
 
+/// The time the nozzle's tip takes along the waypoints at their speeds, s (a lower bound: the
+/// driver may go slower where the joints limit it).
+double travelSeconds(const std::vector<Waypoint>& waypoints);
+
 /// Which way a colliding waypoint is pushed.
 enum class PushMode {
   kOutward,  ///< horizontally away from `centre` (vacuum loops)
