@@ -44,7 +44,9 @@ struct CellPlanner::PartState {
   PartSpec spec;
   std::optional<PoseInput> pose;
   std::optional<ProgressInput> progress;
-  double powder = std::nan("");           ///< last h_pow from a progress message with a contour
+  double powder = std::nan("");           ///< last h_pow from a progress message with a contour...
+  std::int64_t powder_utime = -1;         ///< ...at this frame
+  std::int64_t down_utime = -1;           ///< first of the h_pow in a row, to the last, low enough to end an undercut
   std::int64_t failed_utime = -1;         ///< newest input utime when planning last failed (retry after newer)
   bool blasting = false;                  ///< its air blast has begun (undercut done); until it leaves phase 3
   double undercut_mark = std::nan("");    ///< h_pow when the undercut last lowered it by half a layer...
@@ -172,7 +174,16 @@ InputResult CellPlanner::onProgress(const ProgressInput& in, std::int64_t arriva
     return {InputStatus::kOutOfOrder, "PROGRESS of " + in.part + " is older than the last one"};
   s.progress = in;
   s.progress->contour = std::move(inside);
-  if (in.status == ProgressStatus::kOk) s.powder = in.h_pow;
+  if (in.status == ProgressStatus::kOk) {
+    s.powder = in.h_pow;
+    s.powder_utime = in.utime;
+    // Step 3b's threshold, reading by reading: one reading alone does not end an undercut.
+    const Pose& T = s.pose ? s.pose->T_cell_part : s.spec.T_cell_part_init;
+    if (s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth)
+      s.down_utime = -1;
+    else if (s.down_utime < 0)
+      s.down_utime = in.utime;
+  }
   takeNewest(in.utime, arrival);
   newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
   if (left_out) note += (note.empty() ? "" : "; ") + ("PROGRESS of " + in.part + ": " + outside);
@@ -482,14 +493,17 @@ std::optional<Plan> CellPlanner::step() {
     //     way to the air blast once it has fallen less than half a layer in the time
     //     kUndercutStalls loops take. Timed, not counted: on a toppled part the loops are planned
     //     anew for a jittering pose before they end, and a run went 175 s with 4 loops ended.
+    //     The powder is down once every reading for kDownFor has been (onProgress): h_pow is one
+    //     frame's, a glitched pose can put its band on the dug pit, and the air blast goes on.
     constexpr int kUndercutStalls = 3;
+    constexpr double kDownFor = 0.25;  // s: eight frames at 30 Hz
     bool undercutting = false;
     if (phase != Phase::kAirBlast) {
       s.blasting = false;
       s.undercut_mark = std::nan("");
     }
-    if (phase == Phase::kAirBlast && !s.blasting && config_.vacuum.undercut > 0 && std::isfinite(s.powder) &&
-        s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth) {
+    const bool down = s.down_utime >= 0 && seconds(s.powder_utime - s.down_utime) >= kDownFor;
+    if (phase == Phase::kAirBlast && !s.blasting && config_.vacuum.undercut > 0 && std::isfinite(s.powder) && !down) {
       if (!(s.powder >= s.undercut_mark - 0.5 * config_.vacuum.layer_depth)) {  // the first, or half a layer lower
         s.undercut_mark = s.powder;
         s.undercut_mark_utime = progress.utime;
