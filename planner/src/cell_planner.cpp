@@ -177,7 +177,7 @@ InputResult CellPlanner::onProgress(const ProgressInput& in, std::int64_t arriva
   if (in.status == ProgressStatus::kOk) {
     s.powder = in.h_pow;
     s.powder_utime = in.utime;
-    // Step 3b's threshold, reading by reading: one reading alone does not end an undercut.
+    // The undercut's end (undercuts), reading by reading: one reading alone does not end it.
     const Pose& T = s.pose ? s.pose->T_cell_part : s.spec.T_cell_part_init;
     if (s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth)
       s.down_utime = -1;
@@ -397,6 +397,37 @@ std::optional<Plan> CellPlanner::home(const std::string& why, std::int64_t utime
   return emit(std::move(plan));
 }
 
+bool CellPlanner::undercuts(int i, std::int64_t utime, std::string& ended) {
+  // Undercut (vacuum.undercut): before the air blast, vacuum loops until the powder beside the
+  // part is down to the loops' floor below its bottom (one layer of slack: the powder next to the
+  // nozzle stays a little higher than under it). Once the air blast has begun it goes on (the
+  // measured height hovers about the threshold) until phase 3 ends. Loops that no longer lower it
+  // (the nozzle cannot reach all round a toppled part: the measured height stayed a few mm over
+  // the threshold for good, and the air blast never began) give way to the air blast once it has
+  // fallen less than half a layer in the time kUndercutStalls loops take. Timed, not counted: on a
+  // toppled part the loops are planned anew for a jittering pose before they end, and a run went
+  // 175 s with 4 loops ended. The powder is down once every reading for kDownFor has been
+  // (onProgress): h_pow is one frame's, and a glitched pose can put its band on the dug pit.
+  constexpr int kUndercutStalls = 3;
+  constexpr double kDownFor = 0.25;  // s: eight frames at 30 Hz
+  PartState& s = states_[i];
+  const VacuumConfig& vc = config_.vacuum;
+  const bool down = s.down_utime >= 0 && seconds(s.powder_utime - s.down_utime) >= kDownFor;
+  if (s.blasting || vc.undercut <= 0 || !std::isfinite(s.powder) || down) return false;
+  if (!(s.powder >= s.undercut_mark - 0.5 * vc.layer_depth)) {  // the first, or half a layer lower
+    s.undercut_mark = s.powder;
+    s.undercut_mark_utime = utime;
+  }
+  const double stalled_s = seconds(utime - s.undercut_mark_utime);
+  if (s.undercut_loop_s <= 0 || stalled_s <= kUndercutStalls * s.undercut_loop_s) return true;
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "; undercut ended: the powder fell less than %.1f mm in %.0f s, the time of %d loops (at %.3f m)",
+                500 * vc.layer_depth, stalled_s, kUndercutStalls, s.powder);
+  ended = buf;
+  return false;
+}
+
 std::optional<Plan> CellPlanner::step() {
   updateWorld();
   // 1. Finished? Every part done: go home once.
@@ -483,43 +514,14 @@ std::optional<Plan> CellPlanner::step() {
       continue;
     }
 
+    // 3b. Undercut: phase 3 vacuums on below the part until the powder beside it is down.
     std::string undercut_ended;
-    // 3b. Undercut (vacuum.undercut): before the air blast, vacuum loops until the powder beside
-    //     the part is down to the loops' floor below its bottom (one layer of slack: the powder
-    //     next to the nozzle stays a little higher than under it). Once the air blast has begun
-    //     it goes on (the measured height hovers about the threshold) until phase 3 ends. Loops
-    //     that no longer lower it (the nozzle cannot reach all round a toppled part: the measured
-    //     height stayed a few mm over the threshold for good, and the air blast never began) give
-    //     way to the air blast once it has fallen less than half a layer in the time
-    //     kUndercutStalls loops take. Timed, not counted: on a toppled part the loops are planned
-    //     anew for a jittering pose before they end, and a run went 175 s with 4 loops ended.
-    //     The powder is down once every reading for kDownFor has been (onProgress): h_pow is one
-    //     frame's, a glitched pose can put its band on the dug pit, and the air blast goes on.
-    constexpr int kUndercutStalls = 3;
-    constexpr double kDownFor = 0.25;  // s: eight frames at 30 Hz
-    bool undercutting = false;
     if (phase != Phase::kAirBlast) {
       s.blasting = false;
       s.undercut_mark = std::nan("");
     }
-    const bool down = s.down_utime >= 0 && seconds(s.powder_utime - s.down_utime) >= kDownFor;
-    if (phase == Phase::kAirBlast && !s.blasting && config_.vacuum.undercut > 0 && std::isfinite(s.powder) && !down) {
-      if (!(s.powder >= s.undercut_mark - 0.5 * config_.vacuum.layer_depth)) {  // the first, or half a layer lower
-        s.undercut_mark = s.powder;
-        s.undercut_mark_utime = progress.utime;
-      }
-      const double stalled_s = seconds(progress.utime - s.undercut_mark_utime);
-      if (s.undercut_loop_s <= 0 || stalled_s <= kUndercutStalls * s.undercut_loop_s) {
-        phase = Phase::kVacuumTracked;
-        undercutting = true;
-      } else {
-        char buf[200];
-        std::snprintf(buf, sizeof buf,
-                      "; undercut ended: the powder fell less than %.1f mm in %.0f s, the time of %d loops (at %.3f m)",
-                      500 * config_.vacuum.layer_depth, stalled_s, kUndercutStalls, s.powder);
-        undercut_ended = buf;
-      }
-    }
+    const bool undercutting = phase == Phase::kAirBlast && undercuts(part, progress.utime, undercut_ended);
+    if (undercutting) phase = Phase::kVacuumTracked;
 
     // 4. Plan only when something changed: a finished cycle, a new phase, a moved pose.
     const bool same = continuing && phase == active_phase_;
