@@ -1,7 +1,9 @@
 #include "depowder/planner/cell_planner.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <stdexcept>
 
 #include "depowder/clock.hpp"
@@ -44,9 +46,9 @@ struct CellPlanner::PartState {
   PartSpec spec;
   std::optional<PoseInput> pose;
   std::optional<ProgressInput> progress;
-  double powder = std::nan("");           ///< last h_pow from a progress message with a contour...
-  std::int64_t powder_utime = -1;         ///< ...at this frame
-  std::int64_t down_utime = -1;           ///< first of the h_pow in a row, to the last, low enough to end an undercut
+  double powder = std::nan("");                               ///< last h_pow from a progress message with a contour...
+  std::deque<std::pair<std::int64_t, double>> powder_window;  ///< the h_pow of the last kPowderWindow (utime, m)
+  double powder_median = std::nan("");                        ///< their median
   std::int64_t failed_utime = -1;         ///< newest input utime when planning last failed (retry after newer)
   bool blasting = false;                  ///< its air blast has begun (undercut done); until it leaves phase 3
   double undercut_mark = std::nan("");    ///< h_pow when the undercut last lowered it by half a layer...
@@ -62,6 +64,21 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 double seconds(std::int64_t us) { return static_cast<double>(us) * 1e-6; }
+
+/// The undercut's tests (CellPlanner::undercuts) take the median powder height of this span of
+/// frames (us): 16 frames at 30 Hz.
+constexpr std::int64_t kPowderWindow = 500000;
+
+double medianPowder(const std::deque<std::pair<std::int64_t, double>>& window) {
+  std::vector<double> h;
+  h.reserve(window.size());
+  for (const auto& [utime, height] : window) h.push_back(height);
+  const std::size_t n = h.size();
+  std::nth_element(h.begin(), h.begin() + n / 2, h.end());
+  const double upper = h[n / 2];
+  if (n % 2) return upper;
+  return 0.5 * (upper + *std::max_element(h.begin(), h.begin() + n / 2));
+}
 
 /// An input stamped outside the utimes taken (depowder/clock.hpp): every time the planner keeps is
 /// a difference of two of them.
@@ -176,13 +193,9 @@ InputResult CellPlanner::onProgress(const ProgressInput& in, std::int64_t arriva
   s.progress->contour = std::move(inside);
   if (in.status == ProgressStatus::kOk) {
     s.powder = in.h_pow;
-    s.powder_utime = in.utime;
-    // The undercut's end (undercuts), reading by reading: one reading alone does not end it.
-    const Pose& T = s.pose ? s.pose->T_cell_part : s.spec.T_cell_part_init;
-    if (s.powder > loopFloor(*s.spec.shape, T, config_.vacuum) + config_.vacuum.layer_depth)
-      s.down_utime = -1;
-    else if (s.down_utime < 0)
-      s.down_utime = in.utime;
+    s.powder_window.emplace_back(in.utime, in.h_pow);
+    while (in.utime - s.powder_window.front().first > kPowderWindow) s.powder_window.pop_front();
+    s.powder_median = medianPowder(s.powder_window);
   }
   takeNewest(in.utime, arrival);
   newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
@@ -397,7 +410,7 @@ std::optional<Plan> CellPlanner::home(const std::string& why, std::int64_t utime
   return emit(std::move(plan));
 }
 
-bool CellPlanner::undercuts(int i, std::int64_t utime, std::string& ended) {
+bool CellPlanner::undercuts(int i, const Pose& T, std::int64_t utime, std::string& ended) {
   // Undercut (vacuum.undercut): before the air blast, vacuum loops until the powder beside the
   // part is down to the loops' floor below its bottom (one layer of slack: the powder next to the
   // nozzle stays a little higher than under it). Once the air blast has begun it goes on (the
@@ -406,16 +419,18 @@ bool CellPlanner::undercuts(int i, std::int64_t utime, std::string& ended) {
   // the threshold for good, and the air blast never began) give way to the air blast once it has
   // fallen less than half a layer in the time kUndercutStalls loops take. Timed, not counted: on a
   // toppled part the loops are planned anew for a jittering pose before they end, and a run went
-  // 175 s with 4 loops ended. The powder is down once every reading for kDownFor has been
-  // (onProgress): h_pow is one frame's, and a glitched pose can put its band on the dug pit.
+  // 175 s with 4 loops ended. Both tests take the median h_pow of the last kPowderWindow
+  // (onProgress), not the last: h_pow is one frame's, a glitched pose can put its band on the
+  // dug pit, and beside a toppled pipe it scattered by 0.9 mm (sd, within 2 s; up to 5 mm apart).
   constexpr int kUndercutStalls = 3;
-  constexpr double kDownFor = 0.25;  // s: eight frames at 30 Hz
   PartState& s = states_[i];
   const VacuumConfig& vc = config_.vacuum;
-  const bool down = s.down_utime >= 0 && seconds(s.powder_utime - s.down_utime) >= kDownFor;
-  if (s.blasting || vc.undercut <= 0 || !std::isfinite(s.powder) || down) return false;
-  if (!(s.powder >= s.undercut_mark - 0.5 * vc.layer_depth)) {  // the first, or half a layer lower
-    s.undercut_mark = s.powder;
+  const double powder = s.powder_median;
+  if (s.blasting || vc.undercut <= 0 || !std::isfinite(powder) ||
+      powder <= loopFloor(*s.spec.shape, T, vc) + vc.layer_depth)
+    return false;
+  if (!(powder >= s.undercut_mark - 0.5 * vc.layer_depth)) {  // the first, or half a layer lower
+    s.undercut_mark = powder;
     s.undercut_mark_utime = utime;
   }
   const double stalled_s = seconds(utime - s.undercut_mark_utime);
@@ -423,7 +438,7 @@ bool CellPlanner::undercuts(int i, std::int64_t utime, std::string& ended) {
   char buf[200];
   std::snprintf(buf, sizeof buf,
                 "; undercut ended: the powder fell less than %.1f mm in %.0f s, the time of %d loops (at %.3f m)",
-                500 * vc.layer_depth, stalled_s, kUndercutStalls, s.powder);
+                500 * vc.layer_depth, stalled_s, kUndercutStalls, powder);
   ended = buf;
   return false;
 }
@@ -520,7 +535,7 @@ std::optional<Plan> CellPlanner::step() {
       s.blasting = false;
       s.undercut_mark = std::nan("");
     }
-    const bool undercutting = phase == Phase::kAirBlast && undercuts(part, progress.utime, undercut_ended);
+    const bool undercutting = phase == Phase::kAirBlast && undercuts(part, T, progress.utime, undercut_ended);
     if (undercutting) phase = Phase::kVacuumTracked;
 
     // 4. Plan only when something changed: a finished cycle, a new phase, a moved pose.

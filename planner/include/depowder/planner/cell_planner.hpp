@@ -141,9 +141,9 @@ class CellPlanner {
   /// straight way there is clear.
   bool atCycleStart() const;
   /// Step 3b: part `i`'s phase 3 is still an undercut (vacuum loops below the part before the air
-  /// blast) at progress frame `utime`. When the undercut ends for loops that no longer lower the
-  /// powder, `ended` says so ("; undercut ended: ...").
-  bool undercuts(int i, std::int64_t utime, std::string& ended);
+  /// blast) at tracked pose T and progress frame `utime`. When the undercut ends for loops that
+  /// no longer lower the powder, `ended` says so ("; undercut ended: ...").
+  bool undercuts(int i, const Pose& T, std::int64_t utime, std::string& ended);
 
   PlannerConfig config_;
   std::shared_ptr<const robot::ArmConfig> arm_;
