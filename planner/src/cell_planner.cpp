@@ -46,12 +46,12 @@ struct CellPlanner::PartState {
   PartSpec spec;
   std::optional<PoseInput> pose;
   std::optional<ProgressInput> progress;
-  double powder = std::nan("");                               ///< last h_pow from a progress message with a contour...
+  double powder = std::nan("");                               ///< last h_pow from a progress message with a contour
   std::deque<std::pair<std::int64_t, double>> powder_window;  ///< the h_pow of the last kPowderWindow (utime, m)
   double powder_median = std::nan("");                        ///< their median
   std::int64_t failed_utime = -1;         ///< newest input utime when planning last failed (retry after newer)
   bool blasting = false;                  ///< its air blast has begun (undercut done); until it leaves phase 3
-  double undercut_mark = std::nan("");    ///< h_pow when the undercut last lowered it by half a layer...
+  double undercut_mark = std::nan("");    ///< powder_median when the undercut last lowered it half a layer...
   std::int64_t undercut_mark_utime = -1;  ///< ...at this frame
   double undercut_loop_s = 0;             ///< s its last undercut loop takes the nozzle (0: none yet)
   std::optional<Pose> still_pose;         ///< tracked pose the part has kept within the moving thresholds...
