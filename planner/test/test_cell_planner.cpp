@@ -252,13 +252,11 @@ TEST_F(CellTest, LowPowderFramesAmongHigherOnesDoNotEndTheUndercut) {
   config.vacuum.undercut = 0.02;
   SetUp();
   std::optional<Plan> p;
-  int frames = 0;
-  auto at = [&](double powder) {
+  auto at = [&](double powder) {  // a frame; true once the plan is the air blast
     if (p) robotAt(*p, 3);
     utime += 33000;  // 30 Hz: 16 frames in 0.5 s
     frame("left", T_left, Phase::kAirBlast, powder);
     if (auto next = planner->step()) p = std::move(next);
-    ++frames;
     return p && p->hasWaypoints() && p->phase == Phase::kAirBlast;
   };
   for (int k = 0; k < 40; ++k) EXPECT_FALSE(at(k % 3 == 2 ? 0.012 : 0.019)) << "every third frame low: " << k;
