@@ -260,9 +260,12 @@ int main(int argc, char** argv) {
         std::snprintf(buf, sizeof(buf), "[%6.1f s]", elapsed);
         line = buf;
         for (const auto& [name, p] : parts) {
-          std::snprintf(buf, sizeof(buf), " %s: phase %s, eta %3.0f%% (true %3.0f%%), %s |", name.c_str(),
-                        p.has_progress ? phaseName(p.progress.phase) : "-", p.has_progress ? 100 * p.progress.eta : NAN,
-                        p.has_truth ? 100 * p.truth.eta : NAN, p.has_pose ? trackName(p.pose.status) : "no pose");
+          // In phase 3 the planner may still vacuum below the part first (planner.vacuum.undercut).
+          const bool undercut = plan.part == name && plan.reason.find("undercut: ") != std::string::npos;
+          std::snprintf(buf, sizeof(buf), " %s: phase %s%s, eta %3.0f%% (true %3.0f%%), %s |", name.c_str(),
+                        p.has_progress ? phaseName(p.progress.phase) : "-", undercut ? " (undercut: vacuum first)" : "",
+                        p.has_progress ? 100 * p.progress.eta : NAN, p.has_truth ? 100 * p.truth.eta : NAN,
+                        p.has_pose ? trackName(p.pose.status) : "no pose");
           line += buf;
         }
         std::snprintf(buf, sizeof(buf), " plans %lld, contacts %d", static_cast<long long>(plans),

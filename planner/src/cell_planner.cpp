@@ -582,6 +582,7 @@ std::optional<Plan> CellPlanner::step() {
     }
     Plan plan = planCycle(*world_, request, config_);
     plan.utime = utime;
+    if (undercutting) plan.reason = "undercut: " + plan.reason;  // a vacuum plan in phase 3 (depowder-monitor)
     if (!robot_ && !plan.hasWaypoints()) plan.reason += " (planned from the arm's home joints: no ROBOT_STATE yet)";
     if (!blocked.empty())
       plan.reason = "another part in the cycle's way (" + blocked + "), planned anew: " + plan.reason;

@@ -194,6 +194,7 @@ TEST_F(CellTest, UndercutVacuumsBelowThePartBeforeTheAirBlast) {
   auto dig = planner->step();
   ASSERT_TRUE(dig && dig->hasWaypoints()) << (dig ? dig->reason : "");
   EXPECT_EQ(dig->phase, Phase::kVacuumTracked) << "a vacuum plan: the air-blast clock must not start";
+  EXPECT_EQ(dig->reason.rfind("undercut: contour loop", 0), 0u) << dig->reason;
   EXPECT_TRUE(withTool(*dig, Tool::kAir).empty());
   const auto loop = withTool(*dig, Tool::kVacuum);
   ASSERT_GT(loop.size(), 20u);
