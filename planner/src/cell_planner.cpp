@@ -1,12 +1,12 @@
 #include "depowder/planner/cell_planner.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <deque>
 #include <stdexcept>
 
 #include "depowder/clock.hpp"
+#include "depowder/stats.hpp"
 
 namespace depowder::planner {
 
@@ -48,10 +48,9 @@ struct CellPlanner::PartState {
   std::optional<ProgressInput> progress;
   double powder = std::nan("");                               ///< last h_pow from a progress message with a contour
   std::deque<std::pair<std::int64_t, double>> powder_window;  ///< the h_pow of the last kPowderWindow (utime, m)
-  double powder_median = std::nan("");                        ///< their median
   std::int64_t failed_utime = -1;         ///< newest input utime when planning last failed (retry after newer)
   bool blasting = false;                  ///< its air blast has begun (undercut done); until it leaves phase 3
-  double undercut_mark = std::nan("");    ///< powder_median when the undercut last lowered it half a layer...
+  double undercut_mark = std::nan("");    ///< median powder when the undercut last lowered it half a layer...
   std::int64_t undercut_mark_utime = -1;  ///< ...at this frame
   double undercut_loop_s = 0;             ///< s its last undercut loop takes the nozzle (0: none yet)
   std::optional<Pose> still_pose;         ///< tracked pose the part has kept within the moving thresholds...
@@ -68,17 +67,6 @@ double seconds(std::int64_t us) { return static_cast<double>(us) * 1e-6; }
 /// The undercut's tests (CellPlanner::undercuts) take the median powder height of this span of
 /// frames (us): 16 frames at 30 Hz.
 constexpr std::int64_t kPowderWindow = 500000;
-
-double medianPowder(const std::deque<std::pair<std::int64_t, double>>& window) {
-  std::vector<double> h;
-  h.reserve(window.size());
-  for (const auto& [utime, height] : window) h.push_back(height);
-  const std::size_t n = h.size();
-  std::nth_element(h.begin(), h.begin() + n / 2, h.end());
-  const double upper = h[n / 2];
-  if (n % 2) return upper;
-  return 0.5 * (upper + *std::max_element(h.begin(), h.begin() + n / 2));
-}
 
 /// An input stamped outside the utimes taken (depowder/clock.hpp): every time the planner keeps is
 /// a difference of two of them.
@@ -195,7 +183,6 @@ InputResult CellPlanner::onProgress(const ProgressInput& in, std::int64_t arriva
     s.powder = in.h_pow;
     s.powder_window.emplace_back(in.utime, in.h_pow);
     while (in.utime - s.powder_window.front().first > kPowderWindow) s.powder_window.pop_front();
-    s.powder_median = medianPowder(s.powder_window);
   }
   takeNewest(in.utime, arrival);
   newest_progress_utime_ = std::max(newest_progress_utime_, in.utime);
@@ -425,10 +412,11 @@ bool CellPlanner::undercuts(int i, const Pose& T, std::int64_t utime, std::strin
   constexpr int kUndercutStalls = 3;
   PartState& s = states_[i];
   const VacuumConfig& vc = config_.vacuum;
-  const double powder = s.powder_median;
-  if (s.blasting || vc.undercut <= 0 || !std::isfinite(powder) ||
-      powder <= loopFloor(*s.spec.shape, T, vc) + vc.layer_depth)
-    return false;
+  if (s.blasting || vc.undercut <= 0) return false;
+  std::vector<double> window;
+  for (const auto& [frame_utime, h_pow] : s.powder_window) window.push_back(h_pow);
+  const double powder = interpolatedPercentile(std::move(window), 0.5);  // NaN before the first
+  if (!std::isfinite(powder) || powder <= loopFloor(*s.spec.shape, T, vc) + vc.layer_depth) return false;
   if (!(powder >= s.undercut_mark - 0.5 * vc.layer_depth)) {  // the first, or half a layer lower
     s.undercut_mark = powder;
     s.undercut_mark_utime = utime;
